@@ -1,0 +1,46 @@
+# hairshade — the two commands of the README:
+#   make run    build, then validate the Chiang BSDF against Mitsuba 3 (prints tables)
+#   make test   build, then the whole test suite (cargo test + pytest)
+# Everything else (virtual environment, Python packages, the LLVM library
+# Mitsuba's JIT variant wants) is installed by the targets below.
+
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.deps-stamp
+LLVM19 := /usr/lib/x86_64-linux-gnu/libLLVM-19.so
+export VIRTUAL_ENV := $(abspath $(VENV))
+export PATH := $(abspath $(VENV))/bin:$(PATH)
+
+.PHONY: run test build llvm bench clean
+
+run: build
+	$(PY) -m hairshade validate
+
+test: build
+	cargo test --release --lib
+	$(PY) -m pytest -q
+
+$(STAMP): requirements-dev.txt
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -r requirements-dev.txt
+	touch $(STAMP)
+
+# Mitsuba's llvm_ad_rgb variant needs an LLVM newer than Debian 12's default;
+# without it hairshade falls back to scalar_rgb (slower, same results).
+llvm:
+	@if [ ! -e $(LLVM19) ] && command -v apt-get >/dev/null 2>&1 && [ "$$(id -u)" = 0 ]; then \
+		(apt-get install -y -q libllvm19 >/dev/null 2>&1 || (apt-get update -q >/dev/null 2>&1 && apt-get install -y -q libllvm19 >/dev/null 2>&1)) \
+		|| echo "note: libllvm19 could not be installed; Mitsuba will use scalar_rgb"; \
+	fi
+
+build: $(STAMP) llvm
+	$(VENV)/bin/maturin develop --release -q
+
+bench: build
+	cargo bench --bench fiber
+	$(PY) benches/bench_bsdf.py
+
+clean:
+	rm -rf $(VENV) target

@@ -1,0 +1,12 @@
+"""hairshade: hair fiber BSDFs and a CPU hair renderer, validated against Mitsuba 3.
+
+>>> import hairshade as hs
+>>> c = hs.ChiangHair(eumelanin=1.3, pheomelanin=0.2)
+>>> c.eval([0.0, 0.2, 1.0], [0.3, -0.2, 0.9]).shape
+(3,)
+"""
+
+from ._native import __version__, num_threads
+from .chiang import ChiangHair
+
+__all__ = ["ChiangHair", "__version__", "num_threads"]
