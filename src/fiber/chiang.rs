@@ -49,7 +49,7 @@
 //! `I0Mode::Mitsuba` reproduces Mitsuba's truncated series, its switch to
 //! an asymptotic `log I0` at 12 and its `κ > 10` branch, constants included.
 
-use crate::fiber::frame::{azimuth, from_angles, gamma, sin_cos_theta, Vec3};
+use crate::fiber::frame::{azimuth, from_angles, offset, sin_cos_theta, Vec3};
 use crate::fiber::{param_error, ParamError};
 use crate::math::{
     circ, fresnel_dielectric, gauss_legendre, i0_mitsuba, i0e, log_i0_mitsuba, safe_asin,
@@ -209,8 +209,8 @@ pub struct ChiangHair<T: Real> {
     eta: T,
     sigma_a: [T; 3],
     i0: I0Mode,
-    /// Far-field quadrature over γ ∈ [-π/2, π/2]: (γ, ½ w cos γ).
-    far_nodes: Vec<(T, T)>,
+    /// Far-field quadrature over γ ∈ [-π/2, π/2]: (γ, sin γ, cos γ, ½ w cos γ).
+    far_nodes: Vec<[T; 4]>,
 }
 
 /// Per-direction-pair geometry the model depends on.
@@ -247,7 +247,7 @@ impl<T: Real> ChiangHair<T> {
             i0: p.i0,
             far_nodes: far_field_nodes(s)
                 .into_iter()
-                .map(|(g, w)| (T::from_f64(g), T::from_f64(w)))
+                .map(|(g, w)| [g, g.sin(), g.cos(), w].map(T::from_f64))
                 .collect(),
         }
     }
@@ -293,8 +293,7 @@ impl<T: Real> ChiangHair<T> {
 
     /// Longitudinal scattering M_p (a density in sin θo, without Mitsuba's 1/2π).
     #[inline(always)]
-    fn m_p(&self, sin_theta_i: T, sin_theta_o: T, cos_theta_o: T, v: T) -> T {
-        let cos_theta_i = circ(sin_theta_i);
+    fn m_p(&self, sin_theta_i: T, cos_theta_i: T, sin_theta_o: T, cos_theta_o: T, v: T) -> T {
         let kappa = T::ONE / v;
         match self.i0 {
             I0Mode::Exact => {
@@ -345,8 +344,8 @@ impl<T: Real> ChiangHair<T> {
 
     /// A_p for p = 0..=P_MAX.
     #[inline(always)]
-    fn attenuation(&self, cos_theta_i: T, h: T, transmittance: [T; 3]) -> [[T; 3]; P_MAX + 1] {
-        let f = fresnel_dielectric(cos_theta_i * circ(h), self.eta);
+    fn attenuation(&self, cos_theta_i: T, cos_gamma_i: T, transmittance: [T; 3]) -> [[T; 3]; P_MAX + 1] {
+        let f = fresnel_dielectric(cos_theta_i * cos_gamma_i.abs(), self.eta);
         let mut a = [[T::ZERO; 3]; P_MAX + 1];
         for c in 0..3 {
             let t = transmittance[c];
@@ -382,10 +381,10 @@ impl<T: Real> ChiangHair<T> {
     fn longitudinal_terms(&self, g: &Geometry<T>) -> [T; P_MAX + 1] {
         let mut m = [T::ZERO; P_MAX + 1];
         for (p, mp) in m.iter_mut().enumerate().take(P_MAX) {
-            let (sin_ip, _) = self.reframe_with_scales(g.sin_theta_i, g.cos_theta_i, p);
-            *mp = self.m_p(sin_ip, g.sin_theta_o, g.cos_theta_o, self.v[p]);
+            let (sin_ip, cos_ip) = self.reframe_with_scales(g.sin_theta_i, g.cos_theta_i, p);
+            *mp = self.m_p(sin_ip, cos_ip, g.sin_theta_o, g.cos_theta_o, self.v[p]);
         }
-        m[P_MAX] = self.m_p(g.sin_theta_i, g.sin_theta_o, g.cos_theta_o, self.v[P_MAX])
+        m[P_MAX] = self.m_p(g.sin_theta_i, g.cos_theta_i, g.sin_theta_o, g.cos_theta_o, self.v[P_MAX])
             * T::INV_TWO_PI;
         m
     }
@@ -417,10 +416,9 @@ impl<T: Real> ChiangHair<T> {
     #[inline]
     pub fn eval(&self, wi: &Vec3<T>, wo: &Vec3<T>) -> [T; 3] {
         let g = Self::geometry(wi, wo);
-        let gamma_i = gamma(wi);
-        let h = gamma_i.sin();
+        let (gamma_i, h, cos_gamma_i) = offset(wi);
         let (gamma_t, transmittance) = self.transmission(g.sin_theta_i, g.cos_theta_i, h);
-        let a = self.attenuation(g.cos_theta_i, h, transmittance);
+        let a = self.attenuation(g.cos_theta_i, cos_gamma_i, transmittance);
         let d = self.lobe_densities(&g, &self.longitudinal_terms(&g), gamma_i, gamma_t);
         finite_or_zero3(std::array::from_fn(|c| {
             a[0][c] * d[0] + a[1][c] * d[1] + a[2][c] * d[2] + a[3][c] * d[3]
@@ -431,10 +429,9 @@ impl<T: Real> ChiangHair<T> {
     #[inline]
     pub fn pdf(&self, wi: &Vec3<T>, wo: &Vec3<T>) -> T {
         let g = Self::geometry(wi, wo);
-        let gamma_i = gamma(wi);
-        let h = gamma_i.sin();
+        let (gamma_i, h, cos_gamma_i) = offset(wi);
         let (gamma_t, transmittance) = self.transmission(g.sin_theta_i, g.cos_theta_i, h);
-        let a_pdf = Self::attenuation_pdf(&self.attenuation(g.cos_theta_i, h, transmittance));
+        let a_pdf = Self::attenuation_pdf(&self.attenuation(g.cos_theta_i, cos_gamma_i, transmittance));
         let d = self.lobe_densities(&g, &self.longitudinal_terms(&g), gamma_i, gamma_t);
         finite_or_zero(a_pdf[0] * d[0] + a_pdf[1] * d[1] + a_pdf[2] * d[2] + a_pdf[3] * d[3])
     }
@@ -444,11 +441,10 @@ impl<T: Real> ChiangHair<T> {
     /// Returns `(wo, f/pdf, pdf)`; `pdf == 0` marks a failed sample (weight 0).
     pub fn sample(&self, wi: &Vec3<T>, u1: T, u2: [T; 2]) -> (Vec3<T>, [T; 3], T) {
         let (sin_theta_i, cos_theta_i) = sin_cos_theta(wi);
-        let gamma_i = gamma(wi);
-        let h = gamma_i.sin();
+        let (gamma_i, h, cos_gamma_i) = offset(wi);
         let phi_i = azimuth(wi);
         let (gamma_t, transmittance) = self.transmission(sin_theta_i, cos_theta_i, h);
-        let a_pdf = Self::attenuation_pdf(&self.attenuation(cos_theta_i, h, transmittance));
+        let a_pdf = Self::attenuation_pdf(&self.attenuation(cos_theta_i, cos_gamma_i, transmittance));
 
         // Choose the lobe p by inverting the discrete CDF of A_p; keep the
         // remainder of u1, rescaled to [0, 1], for the azimuthal sample.
@@ -510,10 +506,9 @@ impl<T: Real> ChiangHair<T> {
         let g = Self::geometry(wi, wo);
         let m = self.longitudinal_terms(&g);
         let mut sum = [T::ZERO; 3];
-        for &(gamma_i, weight) in &self.far_nodes {
-            let h = gamma_i.sin();
+        for &[gamma_i, h, cos_gamma_i, weight] in &self.far_nodes {
             let (gamma_t, transmittance) = self.transmission(g.sin_theta_i, g.cos_theta_i, h);
-            let a = self.attenuation(g.cos_theta_i, h, transmittance);
+            let a = self.attenuation(g.cos_theta_i, cos_gamma_i, transmittance);
             let d = self.lobe_densities(&g, &m, gamma_i, gamma_t);
             for c in 0..3 {
                 sum[c] += weight * (a[0][c] * d[0] + a[1][c] * d[1] + a[2][c] * d[2] + a[3][c] * d[3]);
@@ -605,7 +600,7 @@ mod tests {
                         let half = std::f64::consts::PI / 16.0;
                         for (xi, wi) in x.iter().zip(&w) {
                             let t = a + half * (xi + 1.0);
-                            total += wi * half * t.cos() * m.m_p(sin_i, t.sin(), t.cos(), m.v[p]);
+                            total += wi * half * t.cos() * m.m_p(sin_i, circ(sin_i), t.sin(), t.cos(), m.v[p]);
                         }
                     }
                     assert!((total - 1.0).abs() < 1e-10, "beta={beta} sin_i={sin_i} p={p} total={total}");
@@ -621,8 +616,8 @@ mod tests {
         let mi = model(I0Mode::Mitsuba);
         let v = 0.5; // κ = 2 < 10: Mitsuba's direct branch, I0 argument ≤ 2
         for &(si, so) in &[(0.1, -0.2), (0.7, 0.3), (-0.9, 0.9)] {
-            let a = e.m_p(si, so, circ(so), v);
-            let b = mi.m_p(si, so, circ(so), v);
+            let a = e.m_p(si, circ(si), so, circ(so), v);
+            let b = mi.m_p(si, circ(si), so, circ(so), v);
             assert!(((a - b) / a).abs() < 1e-12, "{a} {b}");
         }
     }
@@ -636,7 +631,7 @@ mod tests {
         for &si in &[-1.0_f32, -0.5, 0.0, 0.3, 1.0] {
             for &so in &[-1.0_f32, -0.3, 0.0, 0.299, 1.0] {
                 for p in 0..=P_MAX {
-                    let v = m.m_p(si, so, circ(so), m.v[p]);
+                    let v = m.m_p(si, circ(si), so, circ(so), m.v[p]);
                     assert!(v.is_finite() && v >= 0.0, "si={si} so={so} p={p} v={v}");
                 }
             }

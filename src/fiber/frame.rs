@@ -5,24 +5,29 @@
 //!
 //! | quantity | definition |
 //! | --- | --- |
-//! | longitudinal angle θ | `sin θ = w.y` (angle to the normal plane, not a polar angle) |
+//! | longitudinal angle θ | `sin θ = w.y`, `cos θ = |w.xz|` (angle to the normal plane, not a polar angle) |
 //! | azimuth φ | `atan2(w.z, w.x)` |
-//! | γ (for `wi`) | signed angle between the normal and `w` projected into the normal plane: `±acos(w.z / |w.xz|)`, positive when `w.x < 0` |
-//! | offset h | `sin γ = -w.x / |w.xz|` |
+//! | γ (for `wi`) | signed angle between the normal and `w` projected into the normal plane: `atan2(-w.x, w.z)` (Mitsuba: `±acos(w.z / |w.xz|)`, positive when `w.x < 0`) |
+//! | offset h | `sin γ = -w.x / |w.xz|`; `cos γ = w.z / |w.xz|` |
+//!
+//! Every quantity is computed from the components directly (`cos θ` as
+//! `|w.xz|`, not `sqrt(1 - y²)`; γ by `atan2`, not `acos`): the
+//! mathematically equal forms Mitsuba uses lose up to half the digits near
+//! the poles and near h = 0 and |h| = 1, which matters in f32.
 //!
 //! h is not an input of the near-field model: it is fixed by where `wi` hits
 //! the fiber, i.e. by the normal. Sweeping h means rotating the normal (both
 //! directions) about y.
 
-use crate::math::{circ, safe_acos, Real};
+use crate::math::Real;
 
 /// A direction in the fiber frame.
 pub type Vec3<T> = [T; 3];
 
-/// `(sin θ, cos θ)` of the longitudinal angle.
+/// `(sin θ, cos θ)` of the longitudinal angle of a unit vector.
 #[inline(always)]
 pub fn sin_cos_theta<T: Real>(w: &Vec3<T>) -> (T, T) {
-    (w[1], circ(w[1]))
+    (w[1], (w[0] * w[0] + w[2] * w[2]).sqrt().min(T::ONE))
 }
 
 /// Azimuth φ in the normal plane, measured from local x towards z.
@@ -31,22 +36,16 @@ pub fn azimuth<T: Real>(w: &Vec3<T>) -> T {
     w[2].atan2(w[0])
 }
 
-/// γ of a direction: the signed angle between the normal (z) and the
-/// direction's projection onto the normal plane (xz). In [-π, π]; 0 when the
-/// direction is parallel to the tangent.
+/// Where a direction enters the fiber: `(γ, h = sin γ, cos γ)`, with γ the
+/// signed angle in the normal plane from the normal (z) to the direction's
+/// projection, in (-π, π]. A direction along the tangent gives `(0, 0, 1)`.
 #[inline(always)]
-pub fn gamma<T: Real>(w: &Vec3<T>) -> T {
+pub fn offset<T: Real>(w: &Vec3<T>) -> (T, T, T) {
     let proj = (w[0] * w[0] + w[2] * w[2]).sqrt();
-    let g = if proj == T::ZERO {
-        T::ZERO
-    } else {
-        safe_acos(w[2] / proj)
-    };
-    if w[0] < T::ZERO {
-        g
-    } else {
-        -g
+    if proj == T::ZERO {
+        return (T::ZERO, T::ZERO, T::ONE);
     }
+    ((-w[0]).atan2(w[2]), -w[0] / proj, w[2] / proj)
 }
 
 /// The unit vector along `w`, or `None` if `w` has a non-finite component or
@@ -90,16 +89,18 @@ mod tests {
     }
 
     #[test]
-    fn t02_h_is_minus_x_over_projection() {
-        // h = sin γ = -x / |xz|, for directions in front of and behind the normal.
+    fn t02_offset_matches_mitsuba_gamma() {
+        // Mitsuba: γ = ±acos(z/|xz|), positive when x < 0; h = sin γ.
         for &w in &[[0.3_f64, 0.5, 0.8], [-0.6, -0.2, 0.1], [0.2, 0.1, -0.9], [-1.0, 0.0, 0.0]] {
             let w = normalized(&w).unwrap();
-            let h = gamma(&w).sin();
-            let expect = -w[0] / (w[0] * w[0] + w[2] * w[2]).sqrt();
-            assert!((h - expect).abs() < 1e-15, "{w:?}: {h} vs {expect}");
+            let p = (w[0] * w[0] + w[2] * w[2]).sqrt();
+            let g_mi = if w[0] < 0.0 { (w[2] / p).acos() } else { -(w[2] / p).acos() };
+            let (g, h, cg) = offset(&w);
+            assert!((g - g_mi).abs() < 1e-14, "{w:?}: {g} vs {g_mi}");
+            assert!((h - g_mi.sin()).abs() < 1e-15 && (cg - g_mi.cos()).abs() < 1e-15);
         }
         // Parallel to the tangent: γ = 0 by convention.
-        assert_eq!(gamma(&[0.0_f64, 1.0, 0.0]), 0.0);
+        assert_eq!(offset(&[0.0_f64, 1.0, 0.0]), (0.0, 0.0, 1.0));
     }
 
     #[test]
