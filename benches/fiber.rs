@@ -34,7 +34,10 @@ fn bench_chiang(c: &mut Criterion) {
     let mut g = c.benchmark_group("chiang");
     g.throughput(Throughput::Elements(n as u64));
     for (name, mode) in [("exact", I0Mode::Exact), ("mitsuba", I0Mode::Mitsuba)] {
-        let p = ChiangParams { i0: mode, ..Default::default() };
+        let p = ChiangParams {
+            i0: mode,
+            ..Default::default()
+        };
         let m64: ChiangHair<f64> = p.build().unwrap();
         let m32: ChiangHair<f32> = p.build().unwrap();
         g.bench_function(format!("eval_f64_{name}"), |b| {

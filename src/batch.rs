@@ -9,6 +9,49 @@ use crate::fiber::frame::{normalized, Vec3};
 use crate::math::Real;
 use rayon::prelude::*;
 
+/// The thread pool every batch runs on.
+///
+/// Its threads clear the upper halves of the AVX registers when they start:
+/// a thread inherits its creator's register state, and if the creator last
+/// ran AVX code without `vzeroupper` (the JIT-compiled kernels of a renderer
+/// loaded in the same process, for example), every SSE instruction of the
+/// new thread pays a state-transition penalty, measured here as a 7× slower
+/// `eval`. Threads: `RAYON_NUM_THREADS` or the number of CPUs.
+pub fn pool() -> &'static rayon::ThreadPool {
+    static POOL: std::sync::OnceLock<rayon::ThreadPool> = std::sync::OnceLock::new();
+    POOL.get_or_init(|| {
+        rayon::ThreadPoolBuilder::new()
+            .thread_name(|i| format!("hairshade-{i}"))
+            .start_handler(|_| clear_upper_simd_state())
+            .build()
+            .expect("cannot start the hairshade thread pool")
+    })
+}
+
+#[inline]
+fn clear_upper_simd_state() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU supports AVX (checked above); vzeroupper only
+            // zeroes the upper halves of ymm registers, which hold no live
+            // values at thread start.
+            unsafe { clear_upper_avx() }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn clear_upper_avx() {
+    std::arch::x86_64::_mm256_zeroupper();
+}
+
+/// Number of threads batches run on.
+pub fn num_threads() -> usize {
+    pool().current_num_threads()
+}
+
 /// Pairs per parallel task: large enough to amortize scheduling, small
 /// enough to balance two to a few dozen threads.
 const CHUNK: usize = 4096;
@@ -31,9 +74,15 @@ fn load_bc<T: Real>(a: &[T], i: usize) -> Option<Vec3<T>> {
 /// Number of pairs described by two direction arrays (each `3N` or a
 /// broadcast `3`). Panics on inconsistent lengths: callers validate shapes.
 pub fn pair_count<T>(a: &[T], b: &[T]) -> usize {
-    assert!(a.len() % 3 == 0 && b.len() % 3 == 0, "direction arrays must hold whole vectors");
+    assert!(
+        a.len() % 3 == 0 && b.len() % 3 == 0,
+        "direction arrays must hold whole vectors"
+    );
     let (na, nb) = (a.len() / 3, b.len() / 3);
-    assert!(na == nb || na == 1 || nb == 1, "direction counts {na} and {nb} do not broadcast");
+    assert!(
+        na == nb || na == 1 || nb == 1,
+        "direction counts {na} and {nb} do not broadcast"
+    );
     na.max(nb)
 }
 
@@ -44,16 +93,20 @@ where
 {
     let n = pair_count(wi, wo);
     assert_eq!(out.len(), 3 * n);
-    out.par_chunks_mut(3 * CHUNK).enumerate().for_each(|(k, chunk)| {
-        let base = k * CHUNK;
-        for (j, o) in chunk.chunks_exact_mut(3).enumerate() {
-            let i = base + j;
-            let v = match (load_bc(wi, i), load_bc(wo, i)) {
-                (Some(a), Some(b)) => f(&a, &b),
-                _ => [T::ZERO; 3],
-            };
-            o.copy_from_slice(&v);
-        }
+    pool().install(|| {
+        out.par_chunks_mut(3 * CHUNK)
+            .enumerate()
+            .for_each(|(k, chunk)| {
+                let base = k * CHUNK;
+                for (j, o) in chunk.chunks_exact_mut(3).enumerate() {
+                    let i = base + j;
+                    let v = match (load_bc(wi, i), load_bc(wo, i)) {
+                        (Some(a), Some(b)) => f(&a, &b),
+                        _ => [T::ZERO; 3],
+                    };
+                    o.copy_from_slice(&v);
+                }
+            })
     });
 }
 
@@ -64,15 +117,19 @@ where
 {
     let n = pair_count(wi, wo);
     assert_eq!(out.len(), n);
-    out.par_chunks_mut(CHUNK).enumerate().for_each(|(k, chunk)| {
-        let base = k * CHUNK;
-        for (j, o) in chunk.iter_mut().enumerate() {
-            let i = base + j;
-            *o = match (load_bc(wi, i), load_bc(wo, i)) {
-                (Some(a), Some(b)) => f(&a, &b),
-                _ => T::ZERO,
-            };
-        }
+    pool().install(|| {
+        out.par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(k, chunk)| {
+                let base = k * CHUNK;
+                for (j, o) in chunk.iter_mut().enumerate() {
+                    let i = base + j;
+                    *o = match (load_bc(wi, i), load_bc(wo, i)) {
+                        (Some(a), Some(b)) => f(&a, &b),
+                        _ => T::ZERO,
+                    };
+                }
+            })
     });
 }
 
@@ -97,10 +154,24 @@ where
     assert!(wi.len() == 3 || wi.len() == 3 * n);
     assert_eq!(u2.len(), 2 * n);
     assert!(out.wo.len() == 3 * n && out.weight.len() == 3 * n && out.pdf.len() == n);
-    out.wo
-        .par_chunks_mut(3 * CHUNK)
-        .zip(out.weight.par_chunks_mut(3 * CHUNK))
-        .zip(out.pdf.par_chunks_mut(CHUNK))
+    let SampleOut { wo, weight, pdf } = out;
+    pool().install(|| sample_chunks(wi, u1, u2, wo, weight, pdf, &f));
+}
+
+fn sample_chunks<T: Real, F>(
+    wi: &[T],
+    u1: &[T],
+    u2: &[T],
+    wo: &mut [T],
+    weight: &mut [T],
+    pdf: &mut [T],
+    f: &F,
+) where
+    F: Fn(&Vec3<T>, T, [T; 2]) -> (Vec3<T>, [T; 3], T) + Sync,
+{
+    wo.par_chunks_mut(3 * CHUNK)
+        .zip(weight.par_chunks_mut(3 * CHUNK))
+        .zip(pdf.par_chunks_mut(CHUNK))
         .enumerate()
         .for_each(|(k, ((wo, weight), pdf))| {
             let base = k * CHUNK;

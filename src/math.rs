@@ -531,8 +531,15 @@ mod tests {
             let (x, w) = gauss_legendre(n);
             // Exact for degree 2n-1: ∫ x^{2k} = 2/(2k+1).
             for k in 0..n {
-                let s: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(2 * k as i32)).sum();
-                assert!((s - 2.0 / (2 * k + 1) as f64).abs() < 1e-13, "n={n} k={k} s={s}");
+                let s: f64 = x
+                    .iter()
+                    .zip(&w)
+                    .map(|(x, w)| w * x.powi(2 * k as i32))
+                    .sum();
+                assert!(
+                    (s - 2.0 / (2 * k + 1) as f64).abs() < 1e-13,
+                    "n={n} k={k} s={s}"
+                );
             }
         }
     }
@@ -560,7 +567,9 @@ mod tests {
     #[test]
     fn t08_wrap_pi() {
         let pi = std::f64::consts::PI;
-        assert!((wrap_pi(3.0 * pi) - (-pi)).abs() < 1e-12 || (wrap_pi(3.0 * pi) - pi).abs() < 1e-12);
+        assert!(
+            (wrap_pi(3.0 * pi) - (-pi)).abs() < 1e-12 || (wrap_pi(3.0 * pi) - pi).abs() < 1e-12
+        );
         assert!((wrap_pi(0.5) - 0.5).abs() < 1e-15);
         assert!((wrap_pi(-0.5 - 2.0 * pi) + 0.5).abs() < 1e-12);
     }

@@ -53,8 +53,7 @@ use crate::fiber::frame::{azimuth, from_angles, offset, sin_cos_theta, Vec3};
 use crate::fiber::{param_error, ParamError};
 use crate::math::{
     circ, fresnel_dielectric, gauss_legendre, i0_mitsuba, i0e, log_i0_mitsuba, safe_asin,
-    safe_sqrt, trimmed_logistic, trimmed_logistic_inv_norm, trimmed_logistic_sample, wrap_pi,
-    Real,
+    safe_sqrt, trimmed_logistic, trimmed_logistic_inv_norm, trimmed_logistic_sample, wrap_pi, Real,
 };
 
 /// Number of explicitly modelled lobes (R, TT, TRT); index `P_MAX` is the residual.
@@ -151,10 +150,16 @@ impl ChiangParams {
                 ));
             }
         }
-        for (name, v) in [("eumelanin", self.eumelanin), ("pheomelanin", self.pheomelanin)] {
+        for (name, v) in [
+            ("eumelanin", self.eumelanin),
+            ("pheomelanin", self.pheomelanin),
+        ] {
             if let Some(v) = v {
                 if !v.is_finite() || v < 0.0 {
-                    return Err(param_error(name, format!("must be finite and >= 0, got {v}")));
+                    return Err(param_error(
+                        name,
+                        format!("must be finite and >= 0, got {v}"),
+                    ));
                 }
             }
         }
@@ -308,10 +313,8 @@ impl<T: Real> ChiangHair<T> {
                 let c = cos_theta_i * cos_theta_o * kappa;
                 let s = sin_theta_i * sin_theta_o * kappa;
                 if kappa > T::from_f64(10.0) {
-                    (-s + log_i0_mitsuba(c) - kappa
-                        + T::from_f64(0.6931)
-                        + (T::HALF * kappa).ln())
-                    .exp()
+                    (-s + log_i0_mitsuba(c) - kappa + T::from_f64(0.6931) + (T::HALF * kappa).ln())
+                        .exp()
                 } else {
                     (-s).exp() * i0_mitsuba(c) * kappa / (T::TWO * kappa.sinh())
                 }
@@ -344,7 +347,12 @@ impl<T: Real> ChiangHair<T> {
 
     /// A_p for p = 0..=P_MAX.
     #[inline(always)]
-    fn attenuation(&self, cos_theta_i: T, cos_gamma_i: T, transmittance: [T; 3]) -> [[T; 3]; P_MAX + 1] {
+    fn attenuation(
+        &self,
+        cos_theta_i: T,
+        cos_gamma_i: T,
+        transmittance: [T; 3],
+    ) -> [[T; 3]; P_MAX + 1] {
         let f = fresnel_dielectric(cos_theta_i * cos_gamma_i.abs(), self.eta);
         let mut a = [[T::ZERO; 3]; P_MAX + 1];
         for c in 0..3 {
@@ -355,7 +363,11 @@ impl<T: Real> ChiangHair<T> {
             let denom = T::ONE - t * f;
             // Geometric series of the remaining paths; 0 where it degenerates
             // (f = 1 at grazing incidence with no absorption: A_2 is 0 then).
-            a[3][c] = if denom > T::ZERO { a[2][c] * f * t / denom } else { T::ZERO };
+            a[3][c] = if denom > T::ZERO {
+                a[2][c] * f * t / denom
+            } else {
+                T::ZERO
+            };
         }
         a
     }
@@ -384,14 +396,25 @@ impl<T: Real> ChiangHair<T> {
             let (sin_ip, cos_ip) = self.reframe_with_scales(g.sin_theta_i, g.cos_theta_i, p);
             *mp = self.m_p(sin_ip, cos_ip, g.sin_theta_o, g.cos_theta_o, self.v[p]);
         }
-        m[P_MAX] = self.m_p(g.sin_theta_i, g.cos_theta_i, g.sin_theta_o, g.cos_theta_o, self.v[P_MAX])
-            * T::INV_TWO_PI;
+        m[P_MAX] = self.m_p(
+            g.sin_theta_i,
+            g.cos_theta_i,
+            g.sin_theta_o,
+            g.cos_theta_o,
+            self.v[P_MAX],
+        ) * T::INV_TWO_PI;
         m
     }
 
     /// M_p N_p per explicit lobe and the residual's M/2π, for one h.
     #[inline(always)]
-    fn lobe_densities(&self, g: &Geometry<T>, m: &[T; P_MAX + 1], gamma_i: T, gamma_t: T) -> [T; P_MAX + 1] {
+    fn lobe_densities(
+        &self,
+        g: &Geometry<T>,
+        m: &[T; P_MAX + 1],
+        gamma_i: T,
+        gamma_t: T,
+    ) -> [T; P_MAX + 1] {
         let mut d = *m;
         for (p, dp) in d.iter_mut().enumerate().take(P_MAX) {
             *dp *= self.n_p(g.delta_phi, p, gamma_i, gamma_t);
@@ -431,7 +454,8 @@ impl<T: Real> ChiangHair<T> {
         let g = Self::geometry(wi, wo);
         let (gamma_i, h, cos_gamma_i) = offset(wi);
         let (gamma_t, transmittance) = self.transmission(g.sin_theta_i, g.cos_theta_i, h);
-        let a_pdf = Self::attenuation_pdf(&self.attenuation(g.cos_theta_i, cos_gamma_i, transmittance));
+        let a_pdf =
+            Self::attenuation_pdf(&self.attenuation(g.cos_theta_i, cos_gamma_i, transmittance));
         let d = self.lobe_densities(&g, &self.longitudinal_terms(&g), gamma_i, gamma_t);
         finite_or_zero(a_pdf[0] * d[0] + a_pdf[1] * d[1] + a_pdf[2] * d[2] + a_pdf[3] * d[3])
     }
@@ -444,19 +468,28 @@ impl<T: Real> ChiangHair<T> {
         let (gamma_i, h, cos_gamma_i) = offset(wi);
         let phi_i = azimuth(wi);
         let (gamma_t, transmittance) = self.transmission(sin_theta_i, cos_theta_i, h);
-        let a_pdf = Self::attenuation_pdf(&self.attenuation(cos_theta_i, cos_gamma_i, transmittance));
+        let a_pdf =
+            Self::attenuation_pdf(&self.attenuation(cos_theta_i, cos_gamma_i, transmittance));
 
         // Choose the lobe p by inverting the discrete CDF of A_p; keep the
         // remainder of u1, rescaled to [0, 1], for the azimuthal sample.
         let mut u0 = u1;
-        let mut u_phi = if a_pdf[0] > T::ZERO { u0 / a_pdf[0] } else { T::ZERO };
+        let mut u_phi = if a_pdf[0] > T::ZERO {
+            u0 / a_pdf[0]
+        } else {
+            T::ZERO
+        };
         let mut p = 0;
         for i in 0..P_MAX {
             let take = a_pdf[i] < u0;
             u0 -= a_pdf[i];
             if take {
                 p = i + 1;
-                u_phi = if a_pdf[i + 1] > T::ZERO { u0 / a_pdf[i + 1] } else { T::ZERO };
+                u_phi = if a_pdf[i + 1] > T::ZERO {
+                    u0 / a_pdf[i + 1]
+                } else {
+                    T::ZERO
+                };
             }
         }
         let u_phi = u_phi.max(T::ZERO).min(T::ONE);
@@ -486,9 +519,16 @@ impl<T: Real> ChiangHair<T> {
         };
         let wo = from_angles(sin_theta_o, cos_theta_o, phi_i + delta_phi);
 
-        let g = Geometry { sin_theta_i, cos_theta_i, sin_theta_o, cos_theta_o, delta_phi };
+        let g = Geometry {
+            sin_theta_i,
+            cos_theta_i,
+            sin_theta_o,
+            cos_theta_o,
+            delta_phi,
+        };
         let d = self.lobe_densities(&g, &self.longitudinal_terms(&g), gamma_i, gamma_t);
-        let pdf = finite_or_zero(a_pdf[0] * d[0] + a_pdf[1] * d[1] + a_pdf[2] * d[2] + a_pdf[3] * d[3]);
+        let pdf =
+            finite_or_zero(a_pdf[0] * d[0] + a_pdf[1] * d[1] + a_pdf[2] * d[2] + a_pdf[3] * d[3]);
         if pdf <= T::ZERO {
             return (wo, [T::ZERO; 3], T::ZERO);
         }
@@ -511,7 +551,8 @@ impl<T: Real> ChiangHair<T> {
             let a = self.attenuation(g.cos_theta_i, cos_gamma_i, transmittance);
             let d = self.lobe_densities(&g, &m, gamma_i, gamma_t);
             for c in 0..3 {
-                sum[c] += weight * (a[0][c] * d[0] + a[1][c] * d[1] + a[2][c] * d[2] + a[3][c] * d[3]);
+                sum[c] +=
+                    weight * (a[0][c] * d[0] + a[1][c] * d[1] + a[2][c] * d[2] + a[3][c] * d[3]);
             }
         }
         finite_or_zero3(sum)
@@ -576,7 +617,12 @@ mod tests {
     use crate::fiber::frame::normalized;
 
     fn model(i0: I0Mode) -> ChiangHair<f64> {
-        ChiangParams { i0, ..Default::default() }.build().unwrap()
+        ChiangParams {
+            i0,
+            ..Default::default()
+        }
+        .build()
+        .unwrap()
     }
 
     fn dir(a: f64, b: f64, c: f64) -> Vec3<f64> {
@@ -588,22 +634,32 @@ mod tests {
     fn t01_mp_exact_normalized() {
         let (x, w) = gauss_legendre(400);
         for beta in [0.05, 0.1, 0.3, 0.6, 1.0] {
-            let m: ChiangHair<f64> = ChiangParams { longitudinal_roughness: beta, ..Default::default() }
-                .build()
-                .unwrap();
+            let m: ChiangHair<f64> = ChiangParams {
+                longitudinal_roughness: beta,
+                ..Default::default()
+            }
+            .build()
+            .unwrap();
             for &sin_i in &[-0.8, -0.2, 0.0, 0.5, 0.95] {
                 for p in 0..=P_MAX {
                     // ∫_{-π/2}^{π/2} M_p(θo) cos θo dθo, split into 8 panels.
                     let mut total = 0.0;
                     for k in 0..8 {
-                        let a = -std::f64::consts::FRAC_PI_2 + k as f64 * std::f64::consts::PI / 8.0;
+                        let a =
+                            -std::f64::consts::FRAC_PI_2 + k as f64 * std::f64::consts::PI / 8.0;
                         let half = std::f64::consts::PI / 16.0;
                         for (xi, wi) in x.iter().zip(&w) {
                             let t = a + half * (xi + 1.0);
-                            total += wi * half * t.cos() * m.m_p(sin_i, circ(sin_i), t.sin(), t.cos(), m.v[p]);
+                            total += wi
+                                * half
+                                * t.cos()
+                                * m.m_p(sin_i, circ(sin_i), t.sin(), t.cos(), m.v[p]);
                         }
                     }
-                    assert!((total - 1.0).abs() < 1e-10, "beta={beta} sin_i={sin_i} p={p} total={total}");
+                    assert!(
+                        (total - 1.0).abs() < 1e-10,
+                        "beta={beta} sin_i={sin_i} p={p} total={total}"
+                    );
                 }
             }
         }
@@ -625,9 +681,12 @@ mod tests {
     /// M_p in f32 stays finite and non-negative at the smallest roughness.
     #[test]
     fn t03_mp_f32_stable_at_min_roughness() {
-        let m: ChiangHair<f32> = ChiangParams { longitudinal_roughness: 0.0, ..Default::default() }
-            .build()
-            .unwrap();
+        let m: ChiangHair<f32> = ChiangParams {
+            longitudinal_roughness: 0.0,
+            ..Default::default()
+        }
+        .build()
+        .unwrap();
         for &si in &[-1.0_f32, -0.5, 0.0, 0.3, 1.0] {
             for &so in &[-1.0_f32, -0.3, 0.0, 0.299, 1.0] {
                 for p in 0..=P_MAX {
@@ -641,17 +700,63 @@ mod tests {
     #[test]
     fn t04_invalid_parameters_name_the_parameter() {
         let cases: Vec<(ChiangParams, &str)> = vec![
-            (ChiangParams { longitudinal_roughness: 1.5, ..Default::default() }, "longitudinal_roughness"),
-            (ChiangParams { azimuthal_roughness: -0.1, ..Default::default() }, "azimuthal_roughness"),
-            (ChiangParams { eta: 1.0, ..Default::default() }, "eta"),
-            (ChiangParams { eta: -2.0, ..Default::default() }, "eta"),
-            (ChiangParams { eumelanin: Some(-1.0), ..Default::default() }, "eumelanin"),
-            (ChiangParams { sigma_a: Some([0.1, -0.1, 0.0]), ..Default::default() }, "sigma_a"),
             (
-                ChiangParams { sigma_a: Some([0.1; 3]), eumelanin: Some(1.0), ..Default::default() },
+                ChiangParams {
+                    longitudinal_roughness: 1.5,
+                    ..Default::default()
+                },
+                "longitudinal_roughness",
+            ),
+            (
+                ChiangParams {
+                    azimuthal_roughness: -0.1,
+                    ..Default::default()
+                },
+                "azimuthal_roughness",
+            ),
+            (
+                ChiangParams {
+                    eta: 1.0,
+                    ..Default::default()
+                },
+                "eta",
+            ),
+            (
+                ChiangParams {
+                    eta: -2.0,
+                    ..Default::default()
+                },
+                "eta",
+            ),
+            (
+                ChiangParams {
+                    eumelanin: Some(-1.0),
+                    ..Default::default()
+                },
+                "eumelanin",
+            ),
+            (
+                ChiangParams {
+                    sigma_a: Some([0.1, -0.1, 0.0]),
+                    ..Default::default()
+                },
                 "sigma_a",
             ),
-            (ChiangParams { scale_tilt: f64::NAN, ..Default::default() }, "scale_tilt"),
+            (
+                ChiangParams {
+                    sigma_a: Some([0.1; 3]),
+                    eumelanin: Some(1.0),
+                    ..Default::default()
+                },
+                "sigma_a",
+            ),
+            (
+                ChiangParams {
+                    scale_tilt: f64::NAN,
+                    ..Default::default()
+                },
+                "scale_tilt",
+            ),
         ];
         for (p, name) in cases {
             let err = p.build::<f64>().unwrap_err();
@@ -682,15 +787,32 @@ mod tests {
     #[test]
     fn t06_edge_directions_finite() {
         let m = model(I0Mode::Exact);
-        for wi in [dir(-1.0, 0.0, 0.0), dir(1.0, 0.0, 0.0), dir(0.0, 1.0, 0.0), dir(0.0, -1.0, 0.0)] {
-            for wo in [dir(0.0, 0.0, 1.0), dir(1.0, 0.0, 0.0), dir(0.0, 1.0, 0.0), dir(0.2, -0.7, 0.1)] {
+        for wi in [
+            dir(-1.0, 0.0, 0.0),
+            dir(1.0, 0.0, 0.0),
+            dir(0.0, 1.0, 0.0),
+            dir(0.0, -1.0, 0.0),
+        ] {
+            for wo in [
+                dir(0.0, 0.0, 1.0),
+                dir(1.0, 0.0, 0.0),
+                dir(0.0, 1.0, 0.0),
+                dir(0.2, -0.7, 0.1),
+            ] {
                 let f = m.eval(&wi, &wo);
-                assert!(f.iter().all(|x| x.is_finite() && *x >= 0.0), "{wi:?} {wo:?} {f:?}");
+                assert!(
+                    f.iter().all(|x| x.is_finite() && *x >= 0.0),
+                    "{wi:?} {wo:?} {f:?}"
+                );
                 assert!(m.pdf(&wi, &wo).is_finite());
             }
             for u in [0.0, 0.3, 0.999999] {
                 let (wo, w, pdf) = m.sample(&wi, u, [u, 1.0 - u]);
-                assert!(wo.iter().all(|x| x.is_finite()) && w.iter().all(|x| x.is_finite()) && pdf.is_finite());
+                assert!(
+                    wo.iter().all(|x| x.is_finite())
+                        && w.iter().all(|x| x.is_finite())
+                        && pdf.is_finite()
+                );
             }
         }
     }

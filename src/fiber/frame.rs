@@ -91,10 +91,19 @@ mod tests {
     #[test]
     fn t02_offset_matches_mitsuba_gamma() {
         // Mitsuba: γ = ±acos(z/|xz|), positive when x < 0; h = sin γ.
-        for &w in &[[0.3_f64, 0.5, 0.8], [-0.6, -0.2, 0.1], [0.2, 0.1, -0.9], [-1.0, 0.0, 0.0]] {
+        for &w in &[
+            [0.3_f64, 0.5, 0.8],
+            [-0.6, -0.2, 0.1],
+            [0.2, 0.1, -0.9],
+            [-1.0, 0.0, 0.0],
+        ] {
             let w = normalized(&w).unwrap();
             let p = (w[0] * w[0] + w[2] * w[2]).sqrt();
-            let g_mi = if w[0] < 0.0 { (w[2] / p).acos() } else { -(w[2] / p).acos() };
+            let g_mi = if w[0] < 0.0 {
+                (w[2] / p).acos()
+            } else {
+                -(w[2] / p).acos()
+            };
             let (g, h, cg) = offset(&w);
             assert!((g - g_mi).abs() < 1e-14, "{w:?}: {g} vs {g_mi}");
             assert!((h - g_mi.sin()).abs() < 1e-15 && (cg - g_mi.cos()).abs() < 1e-15);

@@ -25,5 +25,8 @@ impl std::fmt::Display for ParamError {
 impl std::error::Error for ParamError {}
 
 pub(crate) fn param_error(param: &'static str, message: impl Into<String>) -> ParamError {
-    ParamError { param, message: message.into() }
+    ParamError {
+        param,
+        message: message.into(),
+    }
 }

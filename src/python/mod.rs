@@ -75,7 +75,11 @@ fn scalar_pairs<'py, T: Real + Element>(
     Ok(PyArray1::from_vec(py, out))
 }
 
-type SampleArrays<'py, T> = (Bound<'py, PyArray1<T>>, Bound<'py, PyArray1<T>>, Bound<'py, PyArray1<T>>);
+type SampleArrays<'py, T> = (
+    Bound<'py, PyArray1<T>>,
+    Bound<'py, PyArray1<T>>,
+    Bound<'py, PyArray1<T>>,
+);
 
 fn sample_pairs<'py, T: Real + Element>(
     py: Python<'py>,
@@ -95,11 +99,26 @@ fn sample_pairs<'py, T: Real + Element>(
         )));
     }
     let (wo, weight, pdf) = without_gil(py, || {
-        let (mut wo, mut weight, mut pdf) = (vec![T::ZERO; 3 * n], vec![T::ZERO; 3 * n], vec![T::ZERO; n]);
-        sample_batch(a, s1, s2, SampleOut { wo: &mut wo, weight: &mut weight, pdf: &mut pdf }, f);
+        let (mut wo, mut weight, mut pdf) =
+            (vec![T::ZERO; 3 * n], vec![T::ZERO; 3 * n], vec![T::ZERO; n]);
+        sample_batch(
+            a,
+            s1,
+            s2,
+            SampleOut {
+                wo: &mut wo,
+                weight: &mut weight,
+                pdf: &mut pdf,
+            },
+            f,
+        );
         (wo, weight, pdf)
     });
-    Ok((PyArray1::from_vec(py, wo), PyArray1::from_vec(py, weight), PyArray1::from_vec(py, pdf)))
+    Ok((
+        PyArray1::from_vec(py, wo),
+        PyArray1::from_vec(py, weight),
+        PyArray1::from_vec(py, pdf),
+    ))
 }
 
 /// Chiang 2016 hair BSDF (flat-array interface; see `hairshade.ChiangHair`).
@@ -143,31 +162,76 @@ impl PyChiangHair {
             eta,
             i0,
         };
-        Ok(Self { m32: p.build().map_err(value_error)?, m64: p.build().map_err(value_error)? })
+        Ok(Self {
+            m32: p.build().map_err(value_error)?,
+            m64: p.build().map_err(value_error)?,
+        })
     }
 
-    fn eval_f32<'py>(&self, py: Python<'py>, wi: PyReadonlyArray1<'py, f32>, wo: PyReadonlyArray1<'py, f32>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+    fn eval_f32<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f32>,
+        wo: PyReadonlyArray1<'py, f32>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
         rgb_pairs(py, wi, wo, |a, b| self.m32.eval(a, b))
     }
-    fn eval_f64<'py>(&self, py: Python<'py>, wi: PyReadonlyArray1<'py, f64>, wo: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn eval_f64<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f64>,
+        wo: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         rgb_pairs(py, wi, wo, |a, b| self.m64.eval(a, b))
     }
-    fn eval_far_f32<'py>(&self, py: Python<'py>, wi: PyReadonlyArray1<'py, f32>, wo: PyReadonlyArray1<'py, f32>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+    fn eval_far_f32<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f32>,
+        wo: PyReadonlyArray1<'py, f32>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
         rgb_pairs(py, wi, wo, |a, b| self.m32.eval_far(a, b))
     }
-    fn eval_far_f64<'py>(&self, py: Python<'py>, wi: PyReadonlyArray1<'py, f64>, wo: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn eval_far_f64<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f64>,
+        wo: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         rgb_pairs(py, wi, wo, |a, b| self.m64.eval_far(a, b))
     }
-    fn pdf_f32<'py>(&self, py: Python<'py>, wi: PyReadonlyArray1<'py, f32>, wo: PyReadonlyArray1<'py, f32>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+    fn pdf_f32<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f32>,
+        wo: PyReadonlyArray1<'py, f32>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
         scalar_pairs(py, wi, wo, |a, b| self.m32.pdf(a, b))
     }
-    fn pdf_f64<'py>(&self, py: Python<'py>, wi: PyReadonlyArray1<'py, f64>, wo: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn pdf_f64<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f64>,
+        wo: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         scalar_pairs(py, wi, wo, |a, b| self.m64.pdf(a, b))
     }
-    fn sample_f32<'py>(&self, py: Python<'py>, wi: PyReadonlyArray1<'py, f32>, u1: PyReadonlyArray1<'py, f32>, u2: PyReadonlyArray1<'py, f32>) -> PyResult<SampleArrays<'py, f32>> {
+    fn sample_f32<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f32>,
+        u1: PyReadonlyArray1<'py, f32>,
+        u2: PyReadonlyArray1<'py, f32>,
+    ) -> PyResult<SampleArrays<'py, f32>> {
         sample_pairs(py, wi, u1, u2, |a, x, y| self.m32.sample(a, x, y))
     }
-    fn sample_f64<'py>(&self, py: Python<'py>, wi: PyReadonlyArray1<'py, f64>, u1: PyReadonlyArray1<'py, f64>, u2: PyReadonlyArray1<'py, f64>) -> PyResult<SampleArrays<'py, f64>> {
+    fn sample_f64<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f64>,
+        u1: PyReadonlyArray1<'py, f64>,
+        u2: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<SampleArrays<'py, f64>> {
         sample_pairs(py, wi, u1, u2, |a, x, y| self.m64.sample(a, x, y))
     }
     /// Longitudinal variances v_p (R, TT, TRT, residual).
@@ -191,18 +255,30 @@ impl PyChiangHair {
 #[pyfunction]
 fn i0e<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let xs = slice(&x, "x")?;
-    let out = without_gil(py, || xs.iter().map(|&v| crate::math::i0e(v)).collect::<Vec<_>>());
+    let out = without_gil(py, || {
+        xs.iter().map(|&v| crate::math::i0e(v)).collect::<Vec<_>>()
+    });
     Ok(PyArray1::from_vec(py, out))
 }
 
 /// log I0(x), elementwise (f64); `mitsuba=True` uses Mitsuba 3's approximation.
 #[pyfunction]
 #[pyo3(signature = (x, mitsuba=false))]
-fn log_i0<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>, mitsuba: bool) -> PyResult<Bound<'py, PyArray1<f64>>> {
+fn log_i0<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, f64>,
+    mitsuba: bool,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let xs = slice(&x, "x")?;
     let out = without_gil(py, || {
         xs.iter()
-            .map(|&v| if mitsuba { crate::math::log_i0_mitsuba(v) } else { crate::math::log_i0(v) })
+            .map(|&v| {
+                if mitsuba {
+                    crate::math::log_i0_mitsuba(v)
+                } else {
+                    crate::math::log_i0(v)
+                }
+            })
             .collect::<Vec<_>>()
     });
     Ok(PyArray1::from_vec(py, out))
@@ -211,7 +287,7 @@ fn log_i0<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>, mitsuba: bool) ->
 /// Number of threads the batch evaluations use.
 #[pyfunction]
 fn num_threads() -> usize {
-    rayon::current_num_threads()
+    crate::batch::num_threads()
 }
 
 #[pymodule]
