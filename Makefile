@@ -18,7 +18,7 @@ run: build
 	$(PY) -m hairshade validate
 
 test: build
-	cargo test --release --lib
+	cargo test --release --all-targets
 	$(PY) -m pytest -q
 
 $(STAMP): requirements-dev.txt
