@@ -5,7 +5,9 @@
 //! produces 0 (value, pdf and sample weight; a sampled `wo` of 0) without
 //! touching its neighbours.
 
+use crate::fiber::deon::DEonHair;
 use crate::fiber::frame::{normalized, Vec3};
+use crate::fiber::karis::{KarisHair, KarisLobes, LobeVisitor, Transmittance};
 use crate::math::Real;
 use rayon::prelude::*;
 
@@ -61,14 +63,32 @@ fn load<T: Real>(a: &[T], i: usize) -> Option<Vec3<T>> {
     normalized(&[a[3 * i], a[3 * i + 1], a[3 * i + 2]])
 }
 
-/// Direction `i` of `a`, or of a single broadcast direction when `a.len() == 3`.
+/// Unit direction `i` of a flat `(N, 3)` array, or of its only direction
+/// when it holds one (broadcast); `None` if zero-length or non-finite.
 #[inline(always)]
-fn load_bc<T: Real>(a: &[T], i: usize) -> Option<Vec3<T>> {
+pub fn dir_at<T: Real>(a: &[T], i: usize) -> Option<Vec3<T>> {
     if a.len() == 3 {
         load(a, 0)
     } else {
         load(a, i)
     }
+}
+
+/// Value `i` of a per-pair scalar array of length N, or its only value.
+#[inline(always)]
+pub fn scalar_at<T: Copy>(a: &[T], i: usize) -> T {
+    if a.len() == 1 {
+        a[0]
+    } else {
+        a[i]
+    }
+}
+
+/// RGB value `i` of a flat `(N, 3)` array, or its only triple.
+#[inline(always)]
+pub fn rgb_at<T: Copy>(a: &[T], i: usize) -> [T; 3] {
+    let j = if a.len() == 3 { 0 } else { 3 * i };
+    [a[j], a[j + 1], a[j + 2]]
 }
 
 /// Number of pairs described by two direction arrays (each `3N` or a
@@ -86,50 +106,47 @@ pub fn pair_count<T>(a: &[T], b: &[T]) -> usize {
     na.max(nb)
 }
 
-/// `out[i] = f(wi[i], wo[i])` (RGB), `out.len() == 3N`.
+/// `out[W i .. W i + W] = f(i)` for i in 0..N, in parallel on [`pool`].
+pub fn par_map<T: Real, const W: usize, F>(out: &mut [T], f: F)
+where
+    F: Fn(usize) -> [T; W] + Sync,
+{
+    assert!(out.len() % W == 0);
+    pool().install(|| {
+        out.par_chunks_mut(W * CHUNK)
+            .enumerate()
+            .for_each(|(k, chunk)| {
+                let base = k * CHUNK;
+                for (j, o) in chunk.chunks_exact_mut(W).enumerate() {
+                    o.copy_from_slice(&f(base + j));
+                }
+            })
+    });
+}
+
+/// `out[i] = f(wi[i], wo[i])` (RGB), `out.len() == 3N`; degenerate pairs give 0.
 pub fn map_pairs_rgb<T: Real, F>(wi: &[T], wo: &[T], out: &mut [T], f: F)
 where
     F: Fn(&Vec3<T>, &Vec3<T>) -> [T; 3] + Sync,
 {
     let n = pair_count(wi, wo);
     assert_eq!(out.len(), 3 * n);
-    pool().install(|| {
-        out.par_chunks_mut(3 * CHUNK)
-            .enumerate()
-            .for_each(|(k, chunk)| {
-                let base = k * CHUNK;
-                for (j, o) in chunk.chunks_exact_mut(3).enumerate() {
-                    let i = base + j;
-                    let v = match (load_bc(wi, i), load_bc(wo, i)) {
-                        (Some(a), Some(b)) => f(&a, &b),
-                        _ => [T::ZERO; 3],
-                    };
-                    o.copy_from_slice(&v);
-                }
-            })
+    par_map(out, |i| match (dir_at(wi, i), dir_at(wo, i)) {
+        (Some(a), Some(b)) => f(&a, &b),
+        _ => [T::ZERO; 3],
     });
 }
 
-/// `out[i] = f(wi[i], wo[i])` (scalar), `out.len() == N`.
+/// `out[i] = f(wi[i], wo[i])` (scalar), `out.len() == N`; degenerate pairs give 0.
 pub fn map_pairs_scalar<T: Real, F>(wi: &[T], wo: &[T], out: &mut [T], f: F)
 where
     F: Fn(&Vec3<T>, &Vec3<T>) -> T + Sync,
 {
     let n = pair_count(wi, wo);
     assert_eq!(out.len(), n);
-    pool().install(|| {
-        out.par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(k, chunk)| {
-                let base = k * CHUNK;
-                for (j, o) in chunk.iter_mut().enumerate() {
-                    let i = base + j;
-                    *o = match (load_bc(wi, i), load_bc(wo, i)) {
-                        (Some(a), Some(b)) => f(&a, &b),
-                        _ => T::ZERO,
-                    };
-                }
-            })
+    par_map(out, |i| match (dir_at(wi, i), dir_at(wo, i)) {
+        (Some(a), Some(b)) => [f(&a, &b)],
+        _ => [T::ZERO],
     });
 }
 
@@ -179,7 +196,7 @@ fn sample_chunks<T: Real, F>(
                 let i = base + j;
                 let (a, b, c) = (u1[i], u2[2 * i], u2[2 * i + 1]);
                 let ok = a.is_finite() && b.is_finite() && c.is_finite();
-                let (d, w, p) = match load_bc(wi, i) {
+                let (d, w, p) = match dir_at(wi, i) {
                     Some(v) if ok => f(&v, clamp01(a), [clamp01(b), clamp01(c)]),
                     _ => ([T::ZERO; 3], [T::ZERO; 3], T::ZERO),
                 };
@@ -193,4 +210,151 @@ fn sample_chunks<T: Real, F>(
 #[inline(always)]
 fn clamp01<T: Real>(x: T) -> T {
     x.max(T::ZERO).min(T::ONE)
+}
+
+/// Per-pair inputs of a batched [`KarisHair`] evaluation (each array holds N
+/// values or one broadcast value: 1 / 3 for scalars / RGB).
+pub struct KarisInputs<'a, T> {
+    pub l: &'a [T],
+    pub v: &'a [T],
+    pub t: &'a [T],
+    pub shadow: &'a [T],
+    pub global_scattering: &'a [T],
+    pub local_scattering: &'a [T],
+    pub opaque_visibility: &'a [T],
+}
+
+impl<T: Real> KarisInputs<'_, T> {
+    /// Number of pairs (the longest input).
+    pub fn len(&self) -> usize {
+        [
+            self.l.len() / 3,
+            self.v.len() / 3,
+            self.t.len() / 3,
+            self.shadow.len(),
+            self.global_scattering.len() / 3,
+            self.local_scattering.len() / 3,
+            self.opaque_visibility.len(),
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    #[inline(always)]
+    fn at(&self, i: usize) -> Option<(Vec3<T>, Vec3<T>, Vec3<T>, Transmittance<T>)> {
+        let (l, v, t) = (dir_at(self.l, i)?, dir_at(self.v, i)?, dir_at(self.t, i)?);
+        let tr = Transmittance {
+            shadow: scalar_at(self.shadow, i),
+            global_scattering: rgb_at(self.global_scattering, i),
+            local_scattering: rgb_at(self.local_scattering, i),
+            opaque_visibility: scalar_at(self.opaque_visibility, i),
+        };
+        let finite = tr.shadow.is_finite()
+            && tr.opaque_visibility.is_finite()
+            && tr
+                .global_scattering
+                .iter()
+                .chain(&tr.local_scattering)
+                .all(|x| x.is_finite());
+        finite.then_some((l, v, t, tr))
+    }
+}
+
+fn flatten_lobes<T: Real>(k: &KarisLobes<T>) -> [T; 12] {
+    let mut o = [T::ZERO; 12];
+    o[0..3].copy_from_slice(&k.r);
+    o[3..6].copy_from_slice(&k.tt);
+    o[6..9].copy_from_slice(&k.trt);
+    o[9..12].copy_from_slice(&k.ms);
+    o
+}
+
+/// Batched [`KarisHair::eval`] (`LOBES = false`, out `3N`) or its lobes
+/// (`LOBES = true`, out `12N`: R, TT, TRT, MS). Pairs with a degenerate
+/// direction or a non-finite input give 0.
+pub fn karis_eval<T: Real, const LOBES: bool>(
+    m: &KarisHair<T>,
+    inp: &KarisInputs<'_, T>,
+    out: &mut [T],
+) {
+    struct V<'a, 'b, T: Real, const LOBES: bool>(&'a KarisInputs<'b, T>, &'a mut [T]);
+    impl<T: Real, const LOBES: bool> LobeVisitor<T> for V<'_, '_, T, LOBES> {
+        type Out = ();
+        fn visit<const R: bool, const TT: bool, const TRT: bool, const MS: bool>(
+            self,
+            m: &KarisHair<T>,
+        ) {
+            let inp = self.0;
+            if LOBES {
+                par_map::<T, 12, _>(self.1, |i| match inp.at(i) {
+                    Some((l, v, t, tr)) => {
+                        flatten_lobes(&m.lobes_static::<R, TT, TRT, MS>(&l, &v, &t, &tr))
+                    }
+                    None => [T::ZERO; 12],
+                });
+            } else {
+                par_map::<T, 3, _>(self.1, |i| match inp.at(i) {
+                    Some((l, v, t, tr)) => {
+                        m.lobes_static::<R, TT, TRT, MS>(&l, &v, &t, &tr).total()
+                    }
+                    None => [T::ZERO; 3],
+                });
+            }
+        }
+    }
+    m.dispatch(V::<T, LOBES>(inp, out));
+}
+
+/// Batched environment lighting of `m.environment_variant()` (out `3N`).
+pub fn karis_eval_env<T: Real>(
+    m: &KarisHair<T>,
+    v: &[T],
+    t: &[T],
+    sh: &[[T; 3]; 9],
+    out: &mut [T],
+) {
+    struct Env<'a, T: Real>(&'a [T], &'a [T], &'a [[T; 3]; 9], &'a mut [T]);
+    impl<T: Real> LobeVisitor<T> for Env<'_, T> {
+        type Out = ();
+        fn visit<const R: bool, const TT: bool, const TRT: bool, const MS: bool>(
+            self,
+            m: &KarisHair<T>,
+        ) {
+            let (v, t, sh) = (self.0, self.1, self.2);
+            par_map::<T, 3, _>(self.3, |i| match (dir_at(v, i), dir_at(t, i)) {
+                (Some(v), Some(t)) => m.env_lobes_static::<R, TT, TRT, MS>(&v, &t, sh),
+                _ => [T::ZERO; 3],
+            });
+        }
+    }
+    let env = m.environment_variant();
+    env.dispatch(Env(v, t, sh, out));
+}
+
+/// Batched [`DEonHair::lobes`] (out `9N`: R, TT, TRT) or sum (out `3N`).
+pub fn deon_eval<T: Real>(m: &DEonHair<T>, l: &[T], v: &[T], t: &[T], lobes: bool, out: &mut [T]) {
+    let at = |i: usize| Some((dir_at(l, i)?, dir_at(v, i)?, dir_at(t, i)?));
+    if lobes {
+        par_map::<T, 9, _>(out, |i| match at(i) {
+            Some((l, v, t)) => {
+                let s = m.lobes(&l, &v, &t);
+                let mut o = [T::ZERO; 9];
+                for p in 0..3 {
+                    o[3 * p..3 * p + 3].copy_from_slice(&s[p]);
+                }
+                o
+            }
+            None => [T::ZERO; 9],
+        });
+    } else {
+        par_map::<T, 3, _>(out, |i| match at(i) {
+            Some((l, v, t)) => m.eval(&l, &v, &t),
+            None => [T::ZERO; 3],
+        });
+    }
 }

@@ -11,6 +11,7 @@
 
 pub mod batch;
 pub mod fiber;
+pub mod lighting;
 pub mod math;
 
 #[cfg(feature = "python")]

@@ -6,7 +6,10 @@
 (3,)
 """
 
+from . import lobes
 from ._native import __version__, num_threads
 from .chiang import ChiangHair
+from .deon import DEonHair
+from .karis import KarisHair
 
-__all__ = ["ChiangHair", "__version__", "num_threads"]
+__all__ = ["ChiangHair", "DEonHair", "KarisHair", "lobes", "__version__", "num_threads"]

@@ -50,10 +50,11 @@
 //! an asymptotic `log I0` at 12 and its `κ > 10` branch, constants included.
 
 use crate::fiber::frame::{azimuth, from_angles, offset, sin_cos_theta, Vec3};
+use crate::fiber::lobes::{deon_mp, deon_mp_mitsuba};
 use crate::fiber::{param_error, ParamError};
 use crate::math::{
-    circ, fresnel_dielectric, gauss_legendre, i0_mitsuba, i0e, log_i0_mitsuba, safe_asin,
-    safe_sqrt, trimmed_logistic, trimmed_logistic_inv_norm, trimmed_logistic_sample, wrap_pi, Real,
+    circ, fresnel_dielectric, gauss_legendre, safe_asin, safe_sqrt, trimmed_logistic,
+    trimmed_logistic_inv_norm, trimmed_logistic_sample, wrap_pi, Real,
 };
 
 /// Number of explicitly modelled lobes (R, TT, TRT); index `P_MAX` is the residual.
@@ -299,25 +300,10 @@ impl<T: Real> ChiangHair<T> {
     /// Longitudinal scattering M_p (a density in sin θo, without Mitsuba's 1/2π).
     #[inline(always)]
     fn m_p(&self, sin_theta_i: T, cos_theta_i: T, sin_theta_o: T, cos_theta_o: T, v: T) -> T {
-        let kappa = T::ONE / v;
         match self.i0 {
-            I0Mode::Exact => {
-                let dc = cos_theta_i - cos_theta_o;
-                let ds = sin_theta_i + sin_theta_o;
-                let c = cos_theta_i * cos_theta_o * kappa;
-                kappa / -(-T::TWO * kappa).exp_m1()
-                    * (-T::HALF * kappa * (dc * dc + ds * ds)).exp()
-                    * i0e(c)
-            }
+            I0Mode::Exact => deon_mp(sin_theta_i, cos_theta_i, sin_theta_o, cos_theta_o, v),
             I0Mode::Mitsuba => {
-                let c = cos_theta_i * cos_theta_o * kappa;
-                let s = sin_theta_i * sin_theta_o * kappa;
-                if kappa > T::from_f64(10.0) {
-                    (-s + log_i0_mitsuba(c) - kappa + T::from_f64(0.6931) + (T::HALF * kappa).ln())
-                        .exp()
-                } else {
-                    (-s).exp() * i0_mitsuba(c) * kappa / (T::TWO * kappa.sinh())
-                }
+                deon_mp_mitsuba(sin_theta_i, cos_theta_i, sin_theta_o, cos_theta_o, v)
             }
         }
     }

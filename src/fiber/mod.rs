@@ -3,7 +3,10 @@
 //! [`frame`].
 
 pub mod chiang;
+pub mod deon;
 pub mod frame;
+pub mod karis;
+pub mod lobes;
 
 pub use chiang::{ChiangHair, ChiangParams, I0Mode};
 

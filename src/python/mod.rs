@@ -5,7 +5,13 @@
 //! `python/hairshade/`; lengths are re-checked here so that a direct caller
 //! gets an error, never a panic.
 
-use crate::batch::{map_pairs_rgb, map_pairs_scalar, sample_batch, SampleOut};
+use crate::batch::{
+    deon_eval, karis_eval, karis_eval_env, map_pairs_rgb, map_pairs_scalar, sample_batch,
+    KarisInputs, SampleOut,
+};
+use crate::fiber::deon::{DEonHair, DEonParams};
+use crate::fiber::karis::{Absorption, Components, KarisHair, KarisParams};
+use crate::fiber::lobes;
 use crate::fiber::{ChiangHair, ChiangParams, I0Mode, ParamError};
 use crate::math::Real;
 use numpy::{Element, PyArray1, PyReadonlyArray1};
@@ -251,6 +257,471 @@ impl PyChiangHair {
     }
 }
 
+fn components(names: &[String]) -> PyResult<Components> {
+    let mut c = Components {
+        r: false,
+        tt: false,
+        trt: false,
+        ms: false,
+    };
+    for n in names {
+        match n.as_str() {
+            "R" => c.r = true,
+            "TT" => c.tt = true,
+            "TRT" => c.trt = true,
+            "MS" => c.ms = true,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "components: unknown component {other:?}; allowed: 'R', 'TT', 'TRT', 'MS'"
+                )))
+            }
+        }
+    }
+    Ok(c)
+}
+
+/// `len` must be `unit` (broadcast) or `unit * n`.
+fn check_len(name: &str, len: usize, unit: usize, n: usize) -> PyResult<()> {
+    if len == unit || len == unit * n {
+        Ok(())
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{name}: expected {unit} or {} values for {n} pairs, got {len}",
+            unit * n
+        )))
+    }
+}
+
+/// Karis 2016 / UE4 hair shading (flat-array interface; see `hairshade.KarisHair`).
+#[pyclass(frozen, module = "hairshade._native", name = "KarisHair")]
+struct PyKarisHair {
+    m32: KarisHair<f32>,
+    m64: KarisHair<f64>,
+}
+
+type Arr<'py, T> = PyReadonlyArray1<'py, T>;
+type Out<'py, T> = PyResult<Bound<'py, PyArray1<T>>>;
+
+impl PyKarisHair {
+    fn env<'py, T: Real + Element>(
+        &self,
+        py: Python<'py>,
+        m: &KarisHair<T>,
+        v: Arr<'py, T>,
+        t: Arr<'py, T>,
+        sh: Arr<'py, T>,
+    ) -> Out<'py, T> {
+        let (v, t, sh) = (slice(&v, "V")?, slice(&t, "T")?, slice(&sh, "sh")?);
+        let n = (v.len().max(t.len())) / 3;
+        check_len("V", v.len(), 3, n)?;
+        check_len("T", t.len(), 3, n)?;
+        if n == 0 {
+            return Err(PyValueError::new_err("V, T: no directions given"));
+        }
+        if sh.len() != 27 {
+            return Err(PyValueError::new_err(format!(
+                "sh: expected 9 RGB coefficients (27 values), got {}",
+                sh.len()
+            )));
+        }
+        let coeffs: [[T; 3]; 9] =
+            std::array::from_fn(|k| [sh[3 * k], sh[3 * k + 1], sh[3 * k + 2]]);
+        let out = without_gil(py, || {
+            let mut out = vec![T::ZERO; 3 * n];
+            karis_eval_env(m, v, t, &coeffs, &mut out);
+            out
+        });
+        Ok(PyArray1::from_vec(py, out))
+    }
+
+    fn run<'py, T: Real + Element, const LOBES: bool>(
+        &self,
+        py: Python<'py>,
+        m: &KarisHair<T>,
+        a: [&PyReadonlyArray1<'py, T>; 7],
+    ) -> PyResult<Bound<'py, PyArray1<T>>> {
+        let names = [
+            "L",
+            "V",
+            "T",
+            "shadow",
+            "global_scattering",
+            "local_scattering",
+            "opaque_visibility",
+        ];
+        let units = [3, 3, 3, 1, 3, 3, 1];
+        let mut s: Vec<&[T]> = Vec::with_capacity(7);
+        for k in 0..7 {
+            s.push(slice(a[k], names[k])?);
+        }
+        let n = (0..7).map(|k| s[k].len() / units[k]).max().unwrap_or(0);
+        for k in 0..7 {
+            check_len(names[k], s[k].len(), units[k], n)?;
+        }
+        if n == 0 {
+            return Err(PyValueError::new_err("L, V, T: no directions given"));
+        }
+        let inp = KarisInputs {
+            l: s[0],
+            v: s[1],
+            t: s[2],
+            shadow: s[3],
+            global_scattering: s[4],
+            local_scattering: s[5],
+            opaque_visibility: s[6],
+        };
+        let width = if LOBES { 12 } else { 3 };
+        let out = without_gil(py, || {
+            let mut out = vec![T::ZERO; width * n];
+            karis_eval::<T, LOBES>(m, &inp, &mut out);
+            out
+        });
+        Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+#[pymethods]
+impl PyKarisHair {
+    #[new]
+    #[pyo3(signature = (base_color, specular, roughness, scatter, shift, backlit, area, components, separable_r, absorption, fast_asin))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        base_color: [f64; 3],
+        specular: f64,
+        roughness: f64,
+        scatter: f64,
+        shift: f64,
+        backlit: f64,
+        area: f64,
+        components: Vec<String>,
+        separable_r: bool,
+        absorption: &str,
+        fast_asin: bool,
+    ) -> PyResult<Self> {
+        let absorption =
+            match absorption {
+                "legacy" => Absorption::Legacy,
+                "chiang" => Absorption::Chiang,
+                "chiang_corrected" => Absorption::ChiangCorrected,
+                other => return Err(PyValueError::new_err(format!(
+                    "absorption: must be 'legacy', 'chiang' or 'chiang_corrected', got {other:?}"
+                ))),
+            };
+        let p = KarisParams {
+            base_color,
+            specular,
+            roughness,
+            scatter,
+            shift,
+            backlit,
+            area,
+            components: self::components(&components)?,
+            separable_r,
+            absorption,
+            fast_asin,
+        };
+        Ok(Self {
+            m32: p.build().map_err(value_error)?,
+            m64: p.build().map_err(value_error)?,
+        })
+    }
+    #[allow(clippy::too_many_arguments)]
+    fn eval_f32<'py>(
+        &self,
+        py: Python<'py>,
+        l: Arr<'py, f32>,
+        v: Arr<'py, f32>,
+        t: Arr<'py, f32>,
+        shadow: Arr<'py, f32>,
+        global_scattering: Arr<'py, f32>,
+        local_scattering: Arr<'py, f32>,
+        opaque_visibility: Arr<'py, f32>,
+    ) -> Out<'py, f32> {
+        self.run::<f32, false>(
+            py,
+            &self.m32,
+            [
+                &l,
+                &v,
+                &t,
+                &shadow,
+                &global_scattering,
+                &local_scattering,
+                &opaque_visibility,
+            ],
+        )
+    }
+    #[allow(clippy::too_many_arguments)]
+    fn eval_f64<'py>(
+        &self,
+        py: Python<'py>,
+        l: Arr<'py, f64>,
+        v: Arr<'py, f64>,
+        t: Arr<'py, f64>,
+        shadow: Arr<'py, f64>,
+        global_scattering: Arr<'py, f64>,
+        local_scattering: Arr<'py, f64>,
+        opaque_visibility: Arr<'py, f64>,
+    ) -> Out<'py, f64> {
+        self.run::<f64, false>(
+            py,
+            &self.m64,
+            [
+                &l,
+                &v,
+                &t,
+                &shadow,
+                &global_scattering,
+                &local_scattering,
+                &opaque_visibility,
+            ],
+        )
+    }
+    #[allow(clippy::too_many_arguments)]
+    fn eval_lobes_f32<'py>(
+        &self,
+        py: Python<'py>,
+        l: Arr<'py, f32>,
+        v: Arr<'py, f32>,
+        t: Arr<'py, f32>,
+        shadow: Arr<'py, f32>,
+        global_scattering: Arr<'py, f32>,
+        local_scattering: Arr<'py, f32>,
+        opaque_visibility: Arr<'py, f32>,
+    ) -> Out<'py, f32> {
+        self.run::<f32, true>(
+            py,
+            &self.m32,
+            [
+                &l,
+                &v,
+                &t,
+                &shadow,
+                &global_scattering,
+                &local_scattering,
+                &opaque_visibility,
+            ],
+        )
+    }
+    #[allow(clippy::too_many_arguments)]
+    fn eval_lobes_f64<'py>(
+        &self,
+        py: Python<'py>,
+        l: Arr<'py, f64>,
+        v: Arr<'py, f64>,
+        t: Arr<'py, f64>,
+        shadow: Arr<'py, f64>,
+        global_scattering: Arr<'py, f64>,
+        local_scattering: Arr<'py, f64>,
+        opaque_visibility: Arr<'py, f64>,
+    ) -> Out<'py, f64> {
+        self.run::<f64, true>(
+            py,
+            &self.m64,
+            [
+                &l,
+                &v,
+                &t,
+                &shadow,
+                &global_scattering,
+                &local_scattering,
+                &opaque_visibility,
+            ],
+        )
+    }
+    fn eval_env_f32<'py>(
+        &self,
+        py: Python<'py>,
+        v: Arr<'py, f32>,
+        t: Arr<'py, f32>,
+        sh: Arr<'py, f32>,
+    ) -> Out<'py, f32> {
+        self.env(py, &self.m32, v, t, sh)
+    }
+    fn eval_env_f64<'py>(
+        &self,
+        py: Python<'py>,
+        v: Arr<'py, f64>,
+        t: Arr<'py, f64>,
+        sh: Arr<'py, f64>,
+    ) -> Out<'py, f64> {
+        self.env(py, &self.m64, v, t, sh)
+    }
+}
+
+/// UE4 HairShadingRef (flat-array interface; see `hairshade.DEonHair`).
+#[pyclass(frozen, module = "hairshade._native", name = "DEonHair")]
+struct PyDEonHair {
+    m32: DEonHair<f32>,
+    m64: DEonHair<f64>,
+}
+
+impl PyDEonHair {
+    fn run<'py, T: Real + Element>(
+        &self,
+        py: Python<'py>,
+        m: &DEonHair<T>,
+        l: PyReadonlyArray1<'py, T>,
+        v: PyReadonlyArray1<'py, T>,
+        t: PyReadonlyArray1<'py, T>,
+        lobes: bool,
+    ) -> PyResult<Bound<'py, PyArray1<T>>> {
+        let (l, v, t) = (slice(&l, "L")?, slice(&v, "V")?, slice(&t, "T")?);
+        let n = l.len().max(v.len()).max(t.len()) / 3;
+        check_len("L", l.len(), 3, n)?;
+        check_len("V", v.len(), 3, n)?;
+        check_len("T", t.len(), 3, n)?;
+        if n == 0 {
+            return Err(PyValueError::new_err("L, V, T: no directions given"));
+        }
+        let out = without_gil(py, || {
+            let mut out = vec![T::ZERO; if lobes { 9 } else { 3 } * n];
+            deon_eval(m, l, v, t, lobes, &mut out);
+            out
+        });
+        Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+#[pymethods]
+impl PyDEonHair {
+    #[new]
+    #[pyo3(signature = (base_color, roughness, shift, eta, h_samples, h_offset, components))]
+    fn new(
+        base_color: [f64; 3],
+        roughness: f64,
+        shift: f64,
+        eta: f64,
+        h_samples: Option<u32>,
+        h_offset: f64,
+        components: Vec<String>,
+    ) -> PyResult<Self> {
+        let p = DEonParams {
+            base_color,
+            roughness,
+            shift,
+            eta,
+            h_samples,
+            h_offset,
+            components: self::components(&components)?,
+        };
+        Ok(Self {
+            m32: p.build().map_err(value_error)?,
+            m64: p.build().map_err(value_error)?,
+        })
+    }
+    fn eval_f32<'py>(
+        &self,
+        py: Python<'py>,
+        l: PyReadonlyArray1<'py, f32>,
+        v: PyReadonlyArray1<'py, f32>,
+        t: PyReadonlyArray1<'py, f32>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        self.run(py, &self.m32, l, v, t, false)
+    }
+    fn eval_f64<'py>(
+        &self,
+        py: Python<'py>,
+        l: PyReadonlyArray1<'py, f64>,
+        v: PyReadonlyArray1<'py, f64>,
+        t: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.run(py, &self.m64, l, v, t, false)
+    }
+    fn eval_lobes_f32<'py>(
+        &self,
+        py: Python<'py>,
+        l: PyReadonlyArray1<'py, f32>,
+        v: PyReadonlyArray1<'py, f32>,
+        t: PyReadonlyArray1<'py, f32>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        self.run(py, &self.m32, l, v, t, true)
+    }
+    fn eval_lobes_f64<'py>(
+        &self,
+        py: Python<'py>,
+        l: PyReadonlyArray1<'py, f64>,
+        v: PyReadonlyArray1<'py, f64>,
+        t: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.run(py, &self.m64, l, v, t, true)
+    }
+}
+
+/// Elementwise lobe pieces (f64) for `hairshade.lobes`: `name` selects the
+/// function, `args` are equally long arrays (the Python side broadcasts).
+#[pyfunction]
+fn lobe<'py>(
+    py: Python<'py>,
+    name: &str,
+    args: Vec<PyReadonlyArray1<'py, f64>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let a: Vec<&[f64]> = args
+        .iter()
+        .enumerate()
+        .map(|(k, x)| slice(x, &format!("argument {k}")))
+        .collect::<PyResult<_>>()?;
+    let arity = match name {
+        "deon_mp" => 3,
+        "gaussian"
+        | "eta_prime"
+        | "h_tt"
+        | "h_tt_fit"
+        | "schlick"
+        | "gaussian_detector"
+        | "color_to_absorption" => 2,
+        "eta_prime_fit" | "d_tt_fit" | "d_trt_fit" | "asin_fast" | "d_tt" | "d_trt" => 1,
+        "logistic" => 3,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "name: unknown lobe function {other:?}"
+            )))
+        }
+    };
+    if a.len() != arity || a.iter().any(|x| x.len() != a[0].len()) {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected {arity} arrays of equal length"
+        )));
+    }
+    let n = a[0].len();
+    let name = name.to_owned();
+    let out = without_gil(py, || {
+        (0..n)
+            .map(|i| {
+                let x = |k: usize| a[k][i];
+                match name.as_str() {
+                    "deon_mp" => {
+                        let (si, so) = (x(0), x(1));
+                        lobes::deon_mp(
+                            si,
+                            (1.0 - si * si).max(0.0).sqrt(),
+                            so,
+                            (1.0 - so * so).max(0.0).sqrt(),
+                            x(2),
+                        )
+                    }
+                    "gaussian" => lobes::gaussian(x(0), x(1)),
+                    "gaussian_detector" => lobes::gaussian_detector(x(0), x(1)),
+                    "eta_prime" => lobes::eta_prime(x(0), x(1)),
+                    "eta_prime_fit" => lobes::eta_prime_fit(x(0)),
+                    "h_tt" => lobes::h_tt(x(0), x(1)),
+                    "h_tt_fit" => lobes::h_tt_fit(x(0), x(1)),
+                    "d_tt_fit" => lobes::d_tt_fit(x(0)),
+                    "d_trt_fit" => lobes::d_trt_fit(x(0)),
+                    "d_tt" => lobes::logistic_d(x(0), 0.35, std::f64::consts::PI),
+                    "d_trt" => 0.75 * lobes::logistic_d(x(0), 0.15, 0.0),
+                    "logistic" => lobes::logistic_d(x(0), x(1), x(2)),
+                    "schlick" => lobes::schlick_fresnel(x(0), x(1)),
+                    "asin_fast" => lobes::asin_fast(x(0)),
+                    "color_to_absorption" => lobes::color_to_absorption(x(0), x(1)),
+                    _ => f64::NAN,
+                }
+            })
+            .collect::<Vec<f64>>()
+    });
+    Ok(PyArray1::from_vec(py, out))
+}
+
 /// Exponentially scaled Bessel function e^{-|x|} I0(x), elementwise (f64).
 #[pyfunction]
 fn i0e<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -293,6 +764,9 @@ fn num_threads() -> usize {
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyChiangHair>()?;
+    m.add_class::<PyKarisHair>()?;
+    m.add_class::<PyDEonHair>()?;
+    m.add_function(wrap_pyfunction!(lobe, m)?)?;
     m.add_function(wrap_pyfunction!(i0e, m)?)?;
     m.add_function(wrap_pyfunction!(log_i0, m)?)?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;

@@ -1,0 +1,65 @@
+"""Shared plumbing of the real-time model wrappers (KarisHair, DEonHair)."""
+
+from __future__ import annotations
+
+from typing import Iterable
+
+import numpy as np
+
+from . import _arrays
+
+COMPONENTS = ("R", "TT", "TRT", "MS")
+
+
+def components(value: str | Iterable[str], allowed: tuple[str, ...]) -> list[str]:
+    names = [value] if isinstance(value, str) else list(value)
+    for n in names:
+        if n not in allowed:
+            raise ValueError(f"components: unknown component {n!r}; allowed: {', '.join(allowed)}")
+    return names
+
+
+def rgb(value: object, name: str) -> list[float]:
+    a = np.asarray(value, dtype=np.float64)
+    if a.ndim == 0:
+        a = np.repeat(a, 3)
+    if a.shape != (3,):
+        raise ValueError(f"{name}: expected 3 values (RGB), got shape {a.shape}")
+    if not np.all(np.isfinite(a)) or np.any(a < 0) or np.any(a > 1):
+        raise ValueError(f"{name}: each component must be finite and in [0, 1], got {a.tolist()}")
+    return [float(x) for x in a]
+
+
+def triples(L: object, V: object, T: object) -> tuple[list[np.ndarray], type, int, bool]:
+    """Validated (flat L, V, T), dtype, N, single for a world-space evaluation."""
+    arrs = [_arrays.directions(x, n) for x, n in ((L, "L"), (V, "V"), (T, "T"))]
+    counts = [1 if a.ndim == 1 else a.shape[0] for a in arrs]
+    n = max(counts)
+    for a, c, name in zip(arrs, counts, "LVT"):
+        if c not in (1, n):
+            raise ValueError(f"L, V, T: shapes {[x.shape for x in arrs]} do not broadcast ({name})")
+    dtype = _arrays.common_dtype(arrs)
+    single = all(a.ndim == 1 for a in arrs)
+    return [_arrays.flat(a, dtype) for a in arrs], dtype, n, single
+
+
+def per_pair(value: object, name: str, n: int, dtype: type, rgb_values: bool) -> tuple[np.ndarray, bool]:
+    """A per-pair input: scalar or (N,) (rgb_values False); scalar, (3,) or
+    (N, 3) (rgb_values True). Returns (flat array, is_single)."""
+    a = np.asarray(value)
+    if a.dtype.kind not in "fiub":
+        raise ValueError(f"{name}: expected real numbers, got dtype {a.dtype}")
+    if rgb_values:
+        if a.ndim == 0:
+            a = np.repeat(a.reshape(1), 3)
+        ok = a.shape == (3,) or a.shape == (n, 3)
+        want = f"a scalar, (3,) or ({n}, 3)"
+    else:
+        if a.ndim == 0:
+            a = a.reshape(1)
+        ok = a.shape == (1,) or a.shape == (n,)
+        want = f"a scalar or ({n},)"
+    if not ok:
+        raise ValueError(f"{name}: expected {want}, got shape {np.shape(value)}")
+    single = a.shape in ((1,), (3,))
+    return _arrays.flat(a, dtype), single

@@ -1,0 +1,149 @@
+"""Karis 2016 / UE4 `HairShading()`: the real-time hair model, term by term."""
+
+from __future__ import annotations
+
+from typing import Any, Iterable, Sequence
+
+import numpy as np
+
+from . import _models
+from . import _native
+
+_Y00 = 0.28209479177387814
+
+
+class KarisHair:
+    """UE4's ``HairShading()`` (Karis, SIGGRAPH 2016), term by term.
+
+    ==================== ================ ==========================================
+    base_color           (0.3, 0.15, 0.08) C, RGB, each in [0, 1]
+    specular             0.5              [0, 1]; scales R by 2*specular
+    roughness            0.5              [0, 1]; clamped to >= 1/255 as UE does
+    scatter              0.0              [0, 1]; Kajiya-Kay multiple-scattering weight
+    shift                0.035            [-0.25, 0.25]; alpha = (-2, 1, 4) * shift
+    backlit              1.0              [0, 1]; TT weight and R's back-lit lerp
+    area                 0.0              [0, 1]; added to every beta (area lights)
+    components           R, TT, TRT, MS   any subset; disabled lobes are not computed
+    separable_r          True             UE's bUseSeparableR (R width ~ cos(phi/2))
+    legacy_absorption    True             TT absorption pow(C, ...) (UE default)
+    corrected_absorption False            non-legacy only: use 2 sqrt(1-(ha)^2)/cos(theta_d)
+                                          instead of UE's 2 |1-(ha)^2/cos(theta_d)|
+    fast_asin            False            UE's asinFast for theta_d (abs. error 9e-3 rad)
+    ==================== ================ ==========================================
+
+    Vectors are world-space: L towards the light, V towards the viewer, T
+    the fiber tangent, each (N, 3) or (3,) (normalized internally). A pair
+    with a zero-length or non-finite vector, or a non-finite per-pair input,
+    evaluates to 0. The result is UE's S (the value multiplied by the light
+    color), clamped at 0 as UE does; it has no separate cosine.
+    """
+
+    def __init__(
+        self,
+        base_color: Sequence[float] | float = (0.3, 0.15, 0.08),
+        specular: float = 0.5,
+        roughness: float = 0.5,
+        scatter: float = 0.0,
+        shift: float = 0.035,
+        backlit: float = 1.0,
+        area: float = 0.0,
+        components: str | Iterable[str] = ("R", "TT", "TRT", "MS"),
+        separable_r: bool = True,
+        legacy_absorption: bool = True,
+        corrected_absorption: bool = False,
+        fast_asin: bool = False,
+    ) -> None:
+        comps = _models.components(components, _models.COMPONENTS)
+        absorption = "legacy" if legacy_absorption else ("chiang_corrected" if corrected_absorption else "chiang")
+        self._params: dict[str, Any] = dict(
+            base_color=_models.rgb(base_color, "base_color"),
+            specular=float(specular),
+            roughness=float(roughness),
+            scatter=float(scatter),
+            shift=float(shift),
+            backlit=float(backlit),
+            area=float(area),
+            components=tuple(dict.fromkeys(comps)),
+            separable_r=bool(separable_r),
+            legacy_absorption=bool(legacy_absorption),
+            corrected_absorption=bool(corrected_absorption),
+            fast_asin=bool(fast_asin),
+        )
+        p = self._params
+        self._native = _native.KarisHair(
+            p["base_color"], p["specular"], p["roughness"], p["scatter"], p["shift"], p["backlit"], p["area"],
+            list(p["components"]), p["separable_r"], absorption, p["fast_asin"],
+        )
+
+    @property
+    def params(self) -> dict[str, Any]:
+        return dict(self._params)
+
+    def __repr__(self) -> str:
+        return "KarisHair(" + ", ".join(f"{k}={v!r}" for k, v in self._params.items()) + ")"
+
+    def _run(self, lobes: bool, L, V, T, shadow, global_scattering, local_scattering, opaque_visibility):
+        (l, v, t), dtype, n, single = _models.triples(L, V, T)
+        extras = [
+            _models.per_pair(shadow, "shadow", n, dtype, False),
+            _models.per_pair(global_scattering, "global_scattering", n, dtype, True),
+            _models.per_pair(local_scattering, "local_scattering", n, dtype, True),
+            _models.per_pair(opaque_visibility, "opaque_visibility", n, dtype, False),
+        ]
+        single = single and all(s for _, s in extras)
+        suffix = "f32" if dtype == np.float32 else "f64"
+        name = ("eval_lobes_" if lobes else "eval_") + suffix
+        out = getattr(self._native, name)(l, v, t, *(a for a, _ in extras))
+        return out, n, single
+
+    def eval(self, L, V, T, shadow=1.0, global_scattering=1.0, local_scattering=0.0, opaque_visibility=1.0) -> np.ndarray:
+        """UE's ``HairShading`` S for light L, view V, tangent T -> (N, 3).
+
+        ``shadow`` (scalar or (N,)) enters only the Kajiya-Kay tint;
+        ``global_scattering`` and ``local_scattering`` (scalar, RGB or (N, 3))
+        and ``opaque_visibility`` (scalar or (N,)) are UE's
+        FHairTransmittanceData of the MS block."""
+        out, n, single = self._run(False, L, V, T, shadow, global_scattering, local_scattering, opaque_visibility)
+        out = out.reshape(n, 3)
+        return out[0] if single else out
+
+    def eval_lobes(self, L, V, T, shadow=1.0, global_scattering=1.0, local_scattering=0.0, opaque_visibility=1.0) -> dict[str, np.ndarray]:
+        """{"R", "TT", "TRT", "MS"} -> (N, 3) each; disabled lobes are 0.
+        MS is everything the multiple-scattering block adds, so the four
+        sum to ``eval`` wherever that sum is >= 0 (UE clamps it at 0)."""
+        out, n, single = self._run(True, L, V, T, shadow, global_scattering, local_scattering, opaque_visibility)
+        out = out.reshape(n, 4, 3)
+        lobes = {name: out[:, k] for k, name in enumerate(_models.COMPONENTS)}
+        return {k: v[0] for k, v in lobes.items()} if single else lobes
+
+    def eval_env(self, V, T, sh) -> np.ndarray:
+        """Environment lighting as in Karis 2016: the SH radiance sampled in
+        the fake-normal direction n = normalize(V - T (T.V)) and used as a
+        directional light from n, times pi, with R multiplied by
+        saturate(1 + V.L), TT removed and 0.2 added to every beta.
+
+        ``sh``: (3,) constant radiance, or (4, 3) / (9, 3) real SH
+        coefficients (bands 0-1 / 0-2, order Y00, Y1-1, Y10, Y11, Y2-2, ...).
+        -> (N, 3); 0 where V is along T."""
+        c = np.asarray(sh, dtype=np.float64)
+        if c.shape == (3,):
+            c = np.vstack([c / _Y00, np.zeros((8, 3))])
+        elif c.shape == (4, 3):
+            c = np.vstack([c, np.zeros((5, 3))])
+        elif c.shape != (9, 3):
+            raise ValueError(f"sh: expected (3,), (4, 3) or (9, 3), got {c.shape}")
+        if not np.all(np.isfinite(c)):
+            raise ValueError("sh: coefficients must be finite")
+        (v, t), dtype, n, single = _env_pairs(V, T)
+        f = self._native.eval_env_f32 if dtype == np.float32 else self._native.eval_env_f64
+        out = f(v, t, np.ascontiguousarray(c, dtype=dtype).reshape(-1)).reshape(n, 3)
+        return out[0] if single else out
+
+
+def _env_pairs(V, T):
+    from . import _arrays
+
+    a, b = _arrays.directions(V, "V"), _arrays.directions(T, "T")
+    n = _arrays.pair_count(a, b)
+    dtype = _arrays.common_dtype([a, b])
+    return (_arrays.flat(a, dtype), _arrays.flat(b, dtype)), dtype, n, a.ndim == 1 and b.ndim == 1
