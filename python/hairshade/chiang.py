@@ -134,6 +134,16 @@ class ChiangHair:
         from the azimuthal roughness; see ``far_field_order``)."""
         return self._rgb("eval_far", wi, wo)
 
+    def eval_far_lobes(self, wi: object, wo: object) -> dict[str, np.ndarray]:
+        """``eval_far`` split by path: {"R", "TT", "TRT", "TRRT+"} -> (N, 3)
+        each (the last is the residual of all longer paths); they sum to
+        ``eval_far``."""
+        a, b, dtype, n, single = _arrays.prepare_pairs(wi, wo)
+        f = self._native.eval_far_lobes_f32 if dtype == np.float32 else self._native.eval_far_lobes_f64
+        out = f(a, b).reshape(n, 4, 3)
+        lobes = {k: out[:, i] for i, k in enumerate(("R", "TT", "TRT", "TRRT+"))}
+        return {k: v[0] for k, v in lobes.items()} if single else lobes
+
     def pdf(self, wi: object, wo: object) -> np.ndarray:
         """Solid-angle density of ``sample``: (N,3),(N,3) -> (N,)."""
         a, b, dtype, n, single = _arrays.prepare_pairs(wi, wo)

@@ -529,19 +529,28 @@ impl<T: Real> ChiangHair<T> {
     /// singularity of dγ/dh) by composite Gauss–Legendre; M_p does not depend
     /// on h and is evaluated once.
     pub fn eval_far(&self, wi: &Vec3<T>, wo: &Vec3<T>) -> [T; 3] {
+        let l = self.eval_far_lobes(wi, wo);
+        finite_or_zero3(std::array::from_fn(|c| {
+            l[0][c] + l[1][c] + l[2][c] + l[3][c]
+        }))
+    }
+
+    /// The far field split into R, TT, TRT and the residual (p ≥ 3), RGB each.
+    pub fn eval_far_lobes(&self, wi: &Vec3<T>, wo: &Vec3<T>) -> [[T; 3]; P_MAX + 1] {
         let g = Self::geometry(wi, wo);
         let m = self.longitudinal_terms(&g);
-        let mut sum = [T::ZERO; 3];
+        let mut sum = [[T::ZERO; 3]; P_MAX + 1];
         for &[gamma_i, h, cos_gamma_i, weight] in &self.far_nodes {
             let (gamma_t, transmittance) = self.transmission(g.sin_theta_i, g.cos_theta_i, h);
             let a = self.attenuation(g.cos_theta_i, cos_gamma_i, transmittance);
             let d = self.lobe_densities(&g, &m, gamma_i, gamma_t);
-            for c in 0..3 {
-                sum[c] +=
-                    weight * (a[0][c] * d[0] + a[1][c] * d[1] + a[2][c] * d[2] + a[3][c] * d[3]);
+            for p in 0..=P_MAX {
+                for c in 0..3 {
+                    sum[p][c] += weight * a[p][c] * d[p];
+                }
             }
         }
-        finite_or_zero3(sum)
+        sum.map(finite_or_zero3)
     }
 }
 

@@ -251,47 +251,50 @@ impl<T: Real> DEonHair<T> {
         if p == 0 {
             // A_R does not depend on h: N_R = A_R · ½ ∫ D dh.
             let a = schlick_fresnel(self.eta, (T::HALF + T::HALF * g.vol).max(T::ZERO).sqrt());
-            let d = self.integrate_h(
-                |gamma| gaussian_detector(bp, g.phi - Self::omega(0, gamma, g.eta_p)) * gamma.cos(),
+            let [d] = self.integrate_h(
+                |gamma| {
+                    [gaussian_detector(bp, g.phi - Self::omega(0, gamma, g.eta_p)) * gamma.cos()]
+                },
                 0,
                 g,
             );
             return [a * d; 3];
         }
-        let mut out = [T::ZERO; 3];
-        for c in 0..3 {
-            // The channels share D; integrating each keeps the tolerance per channel.
-            out[c] = self.integrate_h(
-                |gamma| {
-                    let h = gamma.sin();
-                    self.attenuation(p, h, g)[c]
-                        * gaussian_detector(bp, g.phi - Self::omega(p, gamma, g.eta_p))
-                        * gamma.cos()
-                },
-                p,
-                g,
-            );
-        }
-        out
+        self.integrate_h(
+            |gamma| {
+                let w = gaussian_detector(bp, g.phi - Self::omega(p, gamma, g.eta_p)) * gamma.cos();
+                self.attenuation(p, gamma.sin(), g).map(|a| a * w)
+            },
+            p,
+            g,
+        )
     }
 
     /// ½ ∫_{-π/2}^{π/2} f(γ) dγ (f includes the Jacobian cos γ), converged or stratified.
-    fn integrate_h(&self, mut f: impl FnMut(T) -> T, p: usize, g: &Geometry<T>) -> T {
+    fn integrate_h<const N: usize>(
+        &self,
+        mut f: impl FnMut(T) -> [T; N],
+        p: usize,
+        g: &Geometry<T>,
+    ) -> [T; N] {
         match self.h_samples {
             Some(n) => {
                 // UE: h_i = 2 (i + offset)/n − 1, N = ½ · (2/n) Σ A D. f already
                 // carries cos γ; divide it out to sum A·D at the h_i.
                 let nf = T::from_f64(n as f64);
-                let mut s = T::ZERO;
+                let mut s = [T::ZERO; N];
                 for i in 0..n {
                     let h = T::TWO * (T::from_f64(i as f64) + self.h_offset) / nf - T::ONE;
                     let gamma = h.asin();
                     let c = gamma.cos();
                     if c > T::ZERO {
-                        s += f(gamma) / c;
+                        let v = f(gamma);
+                        for k in 0..N {
+                            s[k] += v[k] / c;
+                        }
                     }
                 }
-                T::HALF * s * T::TWO / nf
+                s.map(|x| x / nf)
             }
             None => {
                 let breaks = self.breakpoints(p, g);
@@ -300,7 +303,9 @@ impl<T: Real> DEonHair<T> {
                 } else {
                     1e-5
                 };
-                T::HALF * integrate_adaptive(f, &breaks, T::from_f64(tol), T::ZERO, 4000).0
+                integrate_adaptive(f, &breaks, T::from_f64(tol), T::ZERO, 4000)
+                    .0
+                    .map(|x| T::HALF * x)
             }
         }
     }
@@ -314,21 +319,23 @@ impl<T: Real> DEonHair<T> {
         let grid: Vec<T> = (0..=CELLS)
             .map(|i| lo + width * T::from_f64(i as f64))
             .collect();
+        let omega: Vec<T> = grid.iter().map(|&x| Self::omega(p, x, g.eta_p)).collect();
         let mut out = grid.clone();
         let resid = |gamma: T, k: i32| {
             g.phi - Self::omega(p, gamma, g.eta_p) - T::TWO_PI * T::from_f64(k as f64)
         };
-        for w in grid.windows(2) {
+        for c in 0..CELLS {
             for k in -4..=4 {
-                let (mut a, mut b) = (w[0], w[1]);
-                let (mut fa, fb) = (resid(a, k), resid(b, k));
+                let shift = g.phi - T::TWO_PI * T::from_f64(k as f64);
+                let (fa, fb) = (shift - omega[c], shift - omega[c + 1]);
                 if fa == T::ZERO {
-                    out.push(a);
+                    out.push(grid[c]);
                     continue;
                 }
                 if fa * fb > T::ZERO {
                     continue;
                 }
+                let (mut a, mut b, mut fa) = (grid[c], grid[c + 1], fa);
                 for _ in 0..60 {
                     let m = T::HALF * (a + b);
                     let fm = resid(m, k);

@@ -65,6 +65,30 @@ fn rgb_pairs<'py, T: Real + Element>(
     Ok(PyArray1::from_vec(py, out))
 }
 
+fn lobes_pairs<'py, T: Real + Element>(
+    py: Python<'py>,
+    wi: PyReadonlyArray1<'py, T>,
+    wo: PyReadonlyArray1<'py, T>,
+    f: impl Fn(&[T; 3], &[T; 3]) -> [[T; 3]; 4] + Sync + Send,
+) -> PyResult<Bound<'py, PyArray1<T>>> {
+    let (a, b) = (slice(&wi, "wi")?, slice(&wo, "wo")?);
+    let n = pairs(a, b)?;
+    let out = without_gil(py, || {
+        let mut out = vec![T::ZERO; 12 * n];
+        crate::batch::par_map::<T, 12, _>(&mut out, |i| {
+            match (crate::batch::dir_at(a, i), crate::batch::dir_at(b, i)) {
+                (Some(x), Some(y)) => {
+                    let l = f(&x, &y);
+                    std::array::from_fn(|k| l[k / 3][k % 3])
+                }
+                _ => [T::ZERO; 12],
+            }
+        });
+        out
+    });
+    Ok(PyArray1::from_vec(py, out))
+}
+
 fn scalar_pairs<'py, T: Real + Element>(
     py: Python<'py>,
     wi: PyReadonlyArray1<'py, T>,
@@ -205,6 +229,22 @@ impl PyChiangHair {
         wo: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         rgb_pairs(py, wi, wo, |a, b| self.m64.eval_far(a, b))
+    }
+    fn eval_far_lobes_f32<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f32>,
+        wo: PyReadonlyArray1<'py, f32>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        lobes_pairs(py, wi, wo, |a, b| self.m32.eval_far_lobes(a, b))
+    }
+    fn eval_far_lobes_f64<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray1<'py, f64>,
+        wo: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        lobes_pairs(py, wi, wo, |a, b| self.m64.eval_far_lobes(a, b))
     }
     fn pdf_f32<'py>(
         &self,
@@ -398,15 +438,16 @@ impl PyKarisHair {
         absorption: &str,
         fast_asin: bool,
     ) -> PyResult<Self> {
-        let absorption =
-            match absorption {
-                "legacy" => Absorption::Legacy,
-                "chiang" => Absorption::Chiang,
-                "chiang_corrected" => Absorption::ChiangCorrected,
-                other => return Err(PyValueError::new_err(format!(
+        let absorption = match absorption {
+            "legacy" => Absorption::Legacy,
+            "chiang" => Absorption::Chiang,
+            "chiang_corrected" => Absorption::ChiangCorrected,
+            other => {
+                return Err(PyValueError::new_err(format!(
                     "absorption: must be 'legacy', 'chiang' or 'chiang_corrected', got {other:?}"
-                ))),
-            };
+                )))
+            }
+        };
         let p = KarisParams {
             base_color,
             specular,
