@@ -12,6 +12,18 @@ from . import _native
 _I0_MODES = ("exact", "mitsuba")
 
 
+def azimuthal_scale(beta_n: float) -> float:
+    """Chiang eq. 8: logistic scale s for azimuthal roughness beta_n."""
+    b = max(float(beta_n), 1e-3)
+    return float(np.sqrt(np.pi / 8) * (0.265 * b + 1.194 * b * b + 5.372 * b**22))
+
+
+def longitudinal_variance(beta_m: float) -> float:
+    """Chiang eq. 7: R-lobe longitudinal variance v for roughness beta_m."""
+    b = max(float(beta_m), 1e-3)
+    return float((0.726 * b + 0.812 * b * b + 3.7 * b**20) ** 2)
+
+
 class ChiangHair:
     """Chiang et al. 2016 near-field hair BSDF with Mitsuba 3's parameters,
     frame and normalization.
