@@ -124,6 +124,7 @@ class KarisHair:
 
         ``sh``: (3,) constant radiance, or (4, 3) / (9, 3) real SH
         coefficients (bands 0-1 / 0-2, order Y00, Y1-1, Y10, Y11, Y2-2, ...).
+        Negative SH radiance (ringing) is clamped to 0.
         -> (N, 3); 0 where V is along T."""
         c = np.asarray(sh, dtype=np.float64)
         if c.shape == (3,):

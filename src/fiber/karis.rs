@@ -461,8 +461,9 @@ impl<T: Real> KarisHair<T> {
 
     /// Environment lighting (Karis 2016) for a model made by
     /// [`Self::environment_variant`]: the band-2 SH radiance in the fake-normal
-    /// direction `n = normalize(V − T(T·V))`, times π, times the BSDF with
-    /// `L = n`. A view along the tangent (no fake normal) gives 0.
+    /// direction `n = normalize(V − T(T·V))` (clamped at 0: band-limited SH
+    /// can ring negative), times π, times the BSDF with `L = n`. A view along
+    /// the tangent (no fake normal) gives 0.
     #[inline(always)]
     pub fn env_lobes_static<const R: bool, const TT: bool, const TRT: bool, const MS: bool>(
         &self,
@@ -477,7 +478,7 @@ impl<T: Real> KarisHair<T> {
             return [T::ZERO; 3];
         }
         let l = n.map(|x| x / len);
-        let radiance = sh9_eval(sh, &l);
+        let radiance = sh9_eval(sh, &l).map(|x| x.max(T::ZERO));
         let f = self
             .lobes_static::<R, TT, TRT, MS>(&l, v, t, &Transmittance::default())
             .total();
