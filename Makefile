@@ -1,6 +1,6 @@
 # hairshade — the two commands of the README:
 #   make run    build, then validate the Chiang BSDF against Mitsuba 3 (prints tables)
-#   make test   build, then the whole test suite (cargo test + pytest)
+#   make test   build, then the whole test suite (cargo test, pytest, notebooks)
 # Everything else (virtual environment, Python packages, the LLVM library
 # Mitsuba's JIT variant wants) is installed by the targets below.
 
@@ -19,7 +19,7 @@ run: build
 
 test: build
 	cargo test --release --all-targets
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q tests --nbmake notebooks
 
 $(STAMP): requirements-dev.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
