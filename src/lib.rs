@@ -11,8 +11,10 @@
 
 pub mod batch;
 pub mod fiber;
+pub mod image_io;
 pub mod lighting;
 pub mod math;
+pub mod raster;
 
 #[cfg(feature = "python")]
 mod python;

@@ -11,5 +11,10 @@ from ._native import __version__, num_threads
 from .chiang import ChiangHair
 from .deon import DEonHair
 from .karis import KarisHair
+from .render import read_exr, rel_mse, render, side_by_side, write_exr, write_png
+from .scene import Scene, SceneError
 
-__all__ = ["ChiangHair", "DEonHair", "KarisHair", "lobes", "__version__", "num_threads"]
+__all__ = [
+    "ChiangHair", "DEonHair", "KarisHair", "Scene", "SceneError", "lobes", "render",
+    "read_exr", "write_exr", "write_png", "rel_mse", "side_by_side", "__version__", "num_threads",
+]

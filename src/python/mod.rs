@@ -763,6 +763,249 @@ fn lobe<'py>(
     Ok(PyArray1::from_vec(py, out))
 }
 
+type CameraArgs = ([f32; 3], [f32; 3], [f32; 3], f32, u32, u32);
+type LightArgs = (String, [f32; 3], [f32; 3], bool);
+type SphereArgs = ([f32; 3], f32, [f32; 3]);
+
+/// Renders a strand scene (flat-array interface; see `hairshade.render`).
+/// Returns (image as a flat float32 array, stats dict). `progress`, when
+/// given, is called with (tiles done, tiles total) about 10 times a second;
+/// Ctrl-C stops the render and raises KeyboardInterrupt.
+#[pyfunction]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    camera: CameraArgs,
+    lights: Vec<LightArgs>,
+    environment: Option<Vec<f32>>,
+    points: PyReadonlyArray1<'py, f32>,
+    radii: PyReadonlyArray1<'py, f32>,
+    offsets: PyReadonlyArray1<'py, u32>,
+    spheres: Vec<SphereArgs>,
+    hair: &Bound<'py, PyAny>,
+    transparency: &str,
+    layers: usize,
+    shadow_map_size: u32,
+    shadow_density: f32,
+    pcf_radius: i32,
+    background: [f32; 3],
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
+    use crate::raster::scene::*;
+    use glam::Vec3;
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+    let (pts, rad, off) = (
+        slice(&points, "points")?,
+        slice(&radii, "radii")?,
+        slice(&offsets, "offsets")?,
+    );
+    if pts.len() != 3 * rad.len() {
+        return Err(PyValueError::new_err(format!(
+            "points, radii: {} points but {} radii",
+            pts.len() / 3,
+            rad.len()
+        )));
+    }
+    if off.is_empty()
+        || off[0] != 0
+        || off.windows(2).any(|w| w[1] < w[0])
+        || *off.last().unwrap() as usize != rad.len()
+    {
+        return Err(PyValueError::new_err(
+            "offsets: must start at 0, not decrease, and end at the number of points",
+        ));
+    }
+    if camera.4 == 0 || camera.5 == 0 || camera.4 > 16384 || camera.5 > 16384 {
+        return Err(PyValueError::new_err(format!(
+            "resolution: must be in [1, 16384], got {}x{}",
+            camera.4, camera.5
+        )));
+    }
+    let shading = if let Ok(k) = hair.cast::<PyKarisHair>() {
+        HairShading::Karis(k.get().m32.clone())
+    } else if let Ok(c) = hair.cast::<PyChiangHair>() {
+        HairShading::ChiangFar(Box::new(c.get().m32.clone()))
+    } else {
+        return Err(PyValueError::new_err(
+            "hair: expected a KarisHair or ChiangHair model",
+        ));
+    };
+    let mut ls = Vec::with_capacity(lights.len());
+    for (kind, v, i, shadows) in lights {
+        ls.push(match kind.as_str() {
+            "directional" => Light::Directional {
+                direction: Vec3::from(v).normalize_or(Vec3::Z),
+                intensity: Vec3::from(i),
+                shadows,
+            },
+            "point" => Light::Point {
+                position: Vec3::from(v),
+                intensity: Vec3::from(i),
+                shadows,
+            },
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "lights: unknown light type {other:?}"
+                )))
+            }
+        });
+    }
+    let environment = match environment {
+        None => None,
+        Some(c) if c.len() == 27 => Some(Environment {
+            sh: std::array::from_fn(|k| [c[3 * k], c[3 * k + 1], c[3 * k + 2]]),
+        }),
+        Some(c) => {
+            return Err(PyValueError::new_err(format!(
+                "environment: expected 27 SH values, got {}",
+                c.len()
+            )))
+        }
+    };
+    let transparency = match transparency {
+        "mlab" => Transparency::Mlab(layers.clamp(1, 64)),
+        "sorted" => Transparency::Sorted,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "transparency: must be 'mlab' or 'sorted', got {other:?}"
+            )))
+        }
+    };
+    let scene = Scene {
+        camera: Camera {
+            position: camera.0.into(),
+            target: camera.1.into(),
+            up: camera.2.into(),
+            fov_y: camera.3,
+            width: camera.4,
+            height: camera.5,
+        },
+        lights: ls,
+        environment,
+        strands: Strands {
+            points: pts
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2]))
+                .collect(),
+            radii: rad.to_vec(),
+            offsets: off.to_vec(),
+        },
+        spheres: spheres
+            .into_iter()
+            .map(|(c, r, a)| Sphere {
+                center: c.into(),
+                radius: r,
+                albedo: a.into(),
+            })
+            .collect(),
+        hair: shading,
+    };
+    let opts = RenderOptions {
+        transparency,
+        shadow_map_size,
+        shadow_density,
+        pcf_radius,
+        background: background.into(),
+    };
+    let total = crate::raster::tile_count(&scene);
+    let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
+    let result = std::thread::scope(|s| -> PyResult<_> {
+        let handle = s.spawn(|| crate::raster::render_with_progress(&scene, &opts, &done, &cancel));
+        loop {
+            let finished = without_gil(py, || {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                handle.is_finished()
+            });
+            if let Err(e) = py.check_signals() {
+                cancel.store(true, Ordering::Relaxed);
+                let _ = handle.join();
+                return Err(e);
+            }
+            if let Some(cb) = &progress {
+                if let Err(e) = cb.call1((done.load(Ordering::Relaxed), total)) {
+                    cancel.store(true, Ordering::Relaxed);
+                    let _ = handle.join();
+                    return Err(e);
+                }
+            }
+            if finished {
+                break;
+            }
+        }
+        handle
+            .join()
+            .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("render: the renderer panicked"))
+    })?;
+    let (image, stats) =
+        result.ok_or_else(|| pyo3::exceptions::PyKeyboardInterrupt::new_err("render cancelled"))?;
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("segments", stats.segments)?;
+    d.set_item("segments_visible", stats.segments_visible)?;
+    d.set_item("fragments", stats.fragments)?;
+    d.set_item("non_finite_pixels", stats.non_finite_pixels)?;
+    Ok((PyArray1::from_vec(py, image.data), d))
+}
+
+/// Writes a float RGB EXR from a flat (H*W*3) float32 array.
+#[pyfunction]
+fn write_exr(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    width: usize,
+    height: usize,
+    data: PyReadonlyArray1<'_, f32>,
+) -> PyResult<()> {
+    let d = slice(&data, "image")?;
+    if d.len() != width * height * 3 {
+        return Err(PyValueError::new_err(format!(
+            "image: expected {}x{}x3 values, got {}",
+            height,
+            width,
+            d.len()
+        )));
+    }
+    without_gil(py, || crate::image_io::write_exr(&path, width, height, d))
+        .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.0))
+}
+
+/// Reads an EXR's RGB channels: (width, height, flat float32 array).
+#[pyfunction]
+fn read_exr(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+) -> PyResult<(usize, usize, Bound<'_, PyArray1<f32>>)> {
+    let (w, h, d) = without_gil(py, || crate::image_io::read_exr(&path))
+        .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.0))?;
+    Ok((w, h, PyArray1::from_vec(py, d)))
+}
+
+/// Writes an sRGB PNG preview of a flat (H*W*3) linear float32 image.
+#[pyfunction]
+fn write_png(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    width: usize,
+    height: usize,
+    data: PyReadonlyArray1<'_, f32>,
+    exposure: f32,
+) -> PyResult<()> {
+    let d = slice(&data, "image")?;
+    if d.len() != width * height * 3 {
+        return Err(PyValueError::new_err(format!(
+            "image: expected {}x{}x3 values, got {}",
+            height,
+            width,
+            d.len()
+        )));
+    }
+    without_gil(py, || {
+        crate::image_io::write_png(&path, width, height, d, exposure)
+    })
+    .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.0))
+}
+
 /// Exponentially scaled Bessel function e^{-|x|} I0(x), elementwise (f64).
 #[pyfunction]
 fn i0e<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -808,6 +1051,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyKarisHair>()?;
     m.add_class::<PyDEonHair>()?;
     m.add_function(wrap_pyfunction!(lobe, m)?)?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(write_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(write_png, m)?)?;
     m.add_function(wrap_pyfunction!(i0e, m)?)?;
     m.add_function(wrap_pyfunction!(log_i0, m)?)?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;

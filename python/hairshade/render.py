@@ -1,0 +1,119 @@
+"""Rendering with the software rasterizer, and images in and out."""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from . import _native
+from .scene import Scene
+
+
+def render(
+    scene: Scene,
+    width: int | None = None,
+    height: int | None = None,
+    transparency: str | None = None,
+    layers: int | None = None,
+    progress: bool | None = None,
+    return_stats: bool = False,
+) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
+    """Renders ``scene`` -> (H, W, 3) float32 linear radiance.
+
+    ``width``/``height`` override the scene's resolution (if only one is
+    given the other follows the scene's aspect ratio); ``transparency``
+    ("mlab" or "sorted") and ``layers`` override the scene's render settings.
+    ``progress``: a progress bar on stderr (default: when stderr is a
+    terminal). Ctrl-C stops the render (KeyboardInterrupt)."""
+    cam = dict(scene.camera)
+    if width is not None or height is not None:
+        w0, h0 = cam["width"], cam["height"]
+        w = int(width) if width is not None else max(1, round(int(height) * w0 / h0))
+        h = int(height) if height is not None else max(1, round(int(width) * h0 / w0))
+        if not (1 <= w <= 16384 and 1 <= h <= 16384):
+            raise ValueError(f"width, height: must be in [1, 16384], got {w}x{h}")
+        cam["width"], cam["height"] = w, h
+    r = dict(scene.render)
+    if transparency is not None:
+        if transparency not in ("mlab", "sorted"):
+            raise ValueError(f"transparency: must be 'mlab' or 'sorted', got {transparency!r}")
+        r["transparency"] = transparency
+    if layers is not None:
+        if not 1 <= int(layers) <= 64:
+            raise ValueError(f"layers: must be in [1, 64], got {layers}")
+        r["layers"] = int(layers)
+    show = sys.stderr.isatty() if progress is None else progress
+    start = time.perf_counter()
+
+    def bar(done: int, total: int) -> None:
+        frac = done / total if total else 1.0
+        sys.stderr.write(f"\rrender [{'#' * int(30 * frac):30s}] {done}/{total} tiles {time.perf_counter() - start:5.1f}s")
+        sys.stderr.flush()
+
+    try:
+        flat, stats = _native.render(
+            (cam["position"], cam["target"], cam["up"], cam["fov"], cam["width"], cam["height"]),
+            [(l["type"], l["vector"], l["intensity"], l["shadows"]) for l in scene.lights],
+            None if scene.environment_sh is None else [float(x) for x in scene.environment_sh.reshape(-1)],
+            np.ascontiguousarray(scene.points, dtype=np.float32).reshape(-1),
+            np.ascontiguousarray(scene.radii, dtype=np.float32),
+            np.ascontiguousarray(scene.offsets, dtype=np.uint32),
+            [(s["center"], s["radius"], s["albedo"]) for s in scene.spheres],
+            scene.hair._native,
+            r["transparency"],
+            r["layers"],
+            r["shadow_map_size"],
+            r["shadow_density"],
+            r["pcf_radius"],
+            r["background"],
+            bar if show else None,
+        )
+    finally:
+        if show:
+            sys.stderr.write("\n")
+    img = flat.reshape(cam["height"], cam["width"], 3)
+    return (img, dict(stats)) if return_stats else img
+
+
+def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Writes an (H, W, 3) image as a float32 RGB OpenEXR file."""
+    a = np.ascontiguousarray(image, dtype=np.float32)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"image: expected shape (H, W, 3), got {a.shape}")
+    _native.write_exr(os.fspath(path), a.shape[1], a.shape[0], a.reshape(-1))
+
+
+def read_exr(path: str | os.PathLike) -> np.ndarray:
+    """Reads the RGB channels of an OpenEXR file -> (H, W, 3) float32."""
+    w, h, data = _native.read_exr(os.fspath(path))
+    return data.reshape(h, w, 3)
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0) -> None:
+    """8-bit sRGB preview of a linear image scaled by 2**exposure, clamped."""
+    a = np.ascontiguousarray(image, dtype=np.float32)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"image: expected shape (H, W, 3), got {a.shape}")
+    _native.write_png(os.fspath(path), a.shape[1], a.shape[0], a.reshape(-1), float(exposure))
+
+
+def rel_mse(image: np.ndarray, reference: np.ndarray, eps: float = 1e-2) -> float:
+    """Relative MSE: mean of (image - reference)^2 / (reference^2 + eps)."""
+    if image.shape != reference.shape:
+        raise ValueError(f"image, reference: shapes {image.shape} and {reference.shape} differ")
+    return float(np.mean((image - reference) ** 2 / (reference**2 + eps)))
+
+
+def side_by_side(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """[image | reference | |difference| scaled to the reference's 99th percentile]."""
+    if image.shape != reference.shape:
+        raise ValueError(f"image, reference: shapes {image.shape} and {reference.shape} differ")
+    diff = np.abs(image - reference).mean(axis=2, keepdims=True)
+    scale = max(float(np.quantile(reference, 0.99)), 1e-12)
+    err = np.clip(diff / scale, 0, 1)
+    heat = np.concatenate([err, 1 - np.abs(2 * err - 1), 1 - err], axis=2) * scale * (err > 0)
+    return np.concatenate([image, reference, heat.astype(np.float32)], axis=1)

@@ -1,0 +1,338 @@
+"""The scene format (JSON, versioned) and its validated in-memory form.
+
+A scene file::
+
+    {
+      "hairshade_scene": 1,
+      "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0],
+                 "fov": 40, "resolution": [640, 360]},
+      "lights": [
+        {"type": "directional", "direction": [1, 1, 1], "intensity": [3, 3, 3], "shadows": true},
+        {"type": "point", "position": [0, 2, 2], "intensity": [10, 10, 10], "shadows": false},
+        {"type": "environment", "radiance": [0.2, 0.2, 0.25]}
+      ],
+      "hair": {
+        "strands": [{"points": [[0, 0, 0], [0, 1, 0]], "radius": 0.01}],
+        "file": "strands.txt",
+        "generate": {"kind": "head", "strands": 3000, "segments": 16, ...},
+        "material": {"model": "karis", "base_color": [0.3, 0.15, 0.08], "roughness": 0.5}
+      },
+      "meshes": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "albedo": [0.5, 0.4, 0.3]}],
+      "render": {"transparency": "mlab", "layers": 4, "shadow_map_size": 1024,
+                 "shadow_density": 20, "background": [0, 0, 0]}
+    }
+
+- ``direction`` of a directional light points *towards* the light;
+  ``intensity`` is the irradiance it gives a surface facing it. Point lights
+  have intensity in W/sr. An environment is ``radiance`` (constant) or
+  ``sh`` (9 RGB real SH coefficients).
+- Hair comes from any combination of inline ``strands`` (``radius`` or a
+  per-vertex ``radii`` list), a ``file`` (text: one ``x y z r`` vertex per
+  line, a blank line between strands, ``#`` comments; relative to the scene
+  file) and ``generate`` (procedural: ``head``, ``bundle``, see
+  :mod:`hairshade.generate`). Radius 0 is allowed and draws nothing.
+- ``material.model`` is ``karis`` (KarisHair keyword arguments) or
+  ``chiang`` (ChiangHair keyword arguments; shaded with its far field).
+- Every field is checked on load; an error names the file, the field's path
+  (``hair.strands[3].points[5]``) and what is wrong. Non-finite numbers are
+  errors.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .chiang import ChiangHair
+from .karis import KarisHair
+
+VERSION = 1
+_Y00 = 0.28209479177387814
+
+
+class SceneError(ValueError):
+    """A malformed scene: the message names the field and the problem."""
+
+
+@dataclass
+class Scene:
+    """A validated scene, ready to render."""
+
+    camera: dict[str, Any]
+    lights: list[dict[str, Any]]
+    environment_sh: np.ndarray | None
+    points: np.ndarray  # (M, 3) float32
+    radii: np.ndarray  # (M,) float32
+    offsets: np.ndarray  # (S + 1,) uint32
+    spheres: list[dict[str, Any]]
+    material: dict[str, Any]
+    render: dict[str, Any]
+    source: str = "<dict>"
+    hair: KarisHair | ChiangHair = field(init=False)
+
+    def __post_init__(self) -> None:
+        m = dict(self.material)
+        model = m.pop("model")
+        try:
+            self.hair = KarisHair(**m) if model == "karis" else ChiangHair(**m)
+        except (TypeError, ValueError) as e:
+            raise SceneError(f"{self.source}: hair.material: {e}") from None
+
+    @property
+    def strand_count(self) -> int:
+        return len(self.offsets) - 1
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "Scene":
+        path = os.fspath(path)
+        try:
+            with open(path) as f:
+                data = json.load(f)
+        except FileNotFoundError:
+            raise SceneError(f"{path}: file not found") from None
+        except json.JSONDecodeError as e:
+            raise SceneError(f"{path}: not valid JSON ({e})") from None
+        return cls.from_dict(data, base_dir=os.path.dirname(os.path.abspath(path)), source=path)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], base_dir: str | None = None, source: str = "<dict>") -> "Scene":
+        return _parse(d, base_dir or os.getcwd(), source)
+
+
+# -- validation helpers --------------------------------------------------------
+
+
+class _Ctx:
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, path: str, msg: str) -> None:
+        raise SceneError(f"{self.source}: {path}: {msg}")
+
+    def obj(self, v: Any, path: str) -> dict[str, Any]:
+        if not isinstance(v, dict):
+            self.fail(path, f"expected an object, got {type(v).__name__}")
+        return v
+
+    def known(self, d: dict[str, Any], path: str, keys: set[str]) -> None:
+        extra = set(d) - keys
+        if extra:
+            self.fail(f"{path}.{sorted(extra)[0]}" if path else sorted(extra)[0], f"unknown field (allowed: {', '.join(sorted(keys))})")
+
+    def num(self, v: Any, path: str, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False) -> float:
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.fail(path, f"expected a number, got {v!r}")
+        x = float(v)
+        if not math.isfinite(x):
+            self.fail(path, f"must be finite, got {v!r}")
+        if x < lo or x > hi or (lo_open and x == lo):
+            lo_s = "(" if lo_open else "["
+            self.fail(path, f"must be in {lo_s}{lo}, {hi}], got {x}")
+        return x
+
+    def vec3(self, v: Any, path: str, lo: float = -math.inf, hi: float = math.inf) -> list[float]:
+        if not isinstance(v, (list, tuple)) or len(v) != 3:
+            self.fail(path, f"expected 3 numbers, got {v!r}")
+        return [self.num(x, f"{path}[{i}]", lo, hi) for i, x in enumerate(v)]
+
+    def boolean(self, v: Any, path: str) -> bool:
+        if not isinstance(v, bool):
+            self.fail(path, f"expected true or false, got {v!r}")
+        return v
+
+
+def _parse(d: Any, base_dir: str, source: str) -> Scene:
+    c = _Ctx(source)
+    d = c.obj(d, "(top level)")
+    c.known(d, "", {"hairshade_scene", "camera", "lights", "hair", "meshes", "render"})
+    if d.get("hairshade_scene") != VERSION:
+        c.fail("hairshade_scene", f"expected version {VERSION}, got {d.get('hairshade_scene')!r}")
+
+    cam = c.obj(d.get("camera"), "camera")
+    c.known(cam, "camera", {"position", "target", "up", "fov", "resolution"})
+    res = cam.get("resolution", [640, 360])
+    if not isinstance(res, (list, tuple)) or len(res) != 2:
+        c.fail("camera.resolution", f"expected [width, height], got {res!r}")
+    width = int(c.num(res[0], "camera.resolution[0]", 1, 16384))
+    height = int(c.num(res[1], "camera.resolution[1]", 1, 16384))
+    camera = dict(
+        position=c.vec3(cam.get("position"), "camera.position"),
+        target=c.vec3(cam.get("target"), "camera.target"),
+        up=c.vec3(cam.get("up", [0, 1, 0]), "camera.up"),
+        fov=c.num(cam.get("fov", 40), "camera.fov", 0, 179, lo_open=True),
+        width=width,
+        height=height,
+    )
+    fwd = np.subtract(camera["target"], camera["position"])
+    if np.linalg.norm(fwd) == 0:
+        c.fail("camera.target", "must differ from camera.position")
+    if np.linalg.norm(np.cross(fwd, camera["up"])) < 1e-9 * np.linalg.norm(fwd):
+        c.fail("camera.up", "must not be parallel to the viewing direction")
+
+    lights: list[dict[str, Any]] = []
+    env = None
+    raw_lights = d.get("lights", [])
+    if not isinstance(raw_lights, list):
+        c.fail("lights", "expected a list")
+    for i, l in enumerate(raw_lights):
+        p = f"lights[{i}]"
+        l = c.obj(l, p)
+        kind = l.get("type")
+        if kind == "directional":
+            c.known(l, p, {"type", "direction", "intensity", "shadows"})
+            direction = c.vec3(l.get("direction"), f"{p}.direction")
+            if np.linalg.norm(direction) == 0:
+                c.fail(f"{p}.direction", "must not be zero")
+            lights.append(dict(type=kind, vector=direction, intensity=c.vec3(l.get("intensity"), f"{p}.intensity", 0),
+                               shadows=c.boolean(l.get("shadows", True), f"{p}.shadows")))
+        elif kind == "point":
+            c.known(l, p, {"type", "position", "intensity", "shadows"})
+            lights.append(dict(type=kind, vector=c.vec3(l.get("position"), f"{p}.position"),
+                               intensity=c.vec3(l.get("intensity"), f"{p}.intensity", 0),
+                               shadows=c.boolean(l.get("shadows", False), f"{p}.shadows")))
+        elif kind == "environment":
+            c.known(l, p, {"type", "radiance", "sh"})
+            if env is not None:
+                c.fail(p, "only one environment light is allowed")
+            if "sh" in l:
+                sh = l["sh"]
+                if not isinstance(sh, list) or len(sh) != 9:
+                    c.fail(f"{p}.sh", "expected 9 RGB coefficients")
+                env = np.array([c.vec3(x, f"{p}.sh[{k}]") for k, x in enumerate(sh)], dtype=np.float32)
+            else:
+                rad = c.vec3(l.get("radiance"), f"{p}.radiance", 0)
+                env = np.zeros((9, 3), dtype=np.float32)
+                env[0] = np.array(rad) / _Y00
+        else:
+            c.fail(f"{p}.type", f"expected 'directional', 'point' or 'environment', got {kind!r}")
+
+    hair = c.obj(d.get("hair", {}), "hair")
+    c.known(hair, "hair", {"strands", "file", "generate", "material"})
+    pts: list[np.ndarray] = []
+    rads: list[np.ndarray] = []
+    for i, s in enumerate(hair.get("strands", [])):
+        p = f"hair.strands[{i}]"
+        s = c.obj(s, p)
+        c.known(s, p, {"points", "radius", "radii"})
+        raw = s.get("points")
+        if not isinstance(raw, list) or len(raw) < 2:
+            c.fail(f"{p}.points", "expected a list of at least 2 points")
+        v = np.array([c.vec3(x, f"{p}.points[{k}]") for k, x in enumerate(raw)], dtype=np.float64)
+        if "radii" in s:
+            rr = s["radii"]
+            if not isinstance(rr, list) or len(rr) != len(v):
+                c.fail(f"{p}.radii", f"expected {len(v)} radii (one per point)")
+            r = np.array([c.num(x, f"{p}.radii[{k}]", 0) for k, x in enumerate(rr)])
+        else:
+            r = np.full(len(v), c.num(s.get("radius", 0.005), f"{p}.radius", 0))
+        pts.append(v)
+        rads.append(r)
+    if "file" in hair:
+        f = hair["file"]
+        if not isinstance(f, str):
+            c.fail("hair.file", f"expected a path, got {f!r}")
+        fpts, frads = _read_strand_file(os.path.join(base_dir, f), c)
+        pts += fpts
+        rads += frads
+    if "generate" in hair:
+        from .generate import generate
+
+        try:
+            gp, gr = generate(c.obj(hair["generate"], "hair.generate"))
+        except (TypeError, ValueError) as e:
+            c.fail("hair.generate", str(e))
+        pts += gp
+        rads += gr
+    offsets = np.zeros(len(pts) + 1, dtype=np.uint32)
+    offsets[1:] = np.cumsum([len(p) for p in pts]) if pts else []
+    points = np.concatenate(pts).astype(np.float32) if pts else np.zeros((0, 3), np.float32)
+    radii = np.concatenate(rads).astype(np.float32) if rads else np.zeros(0, np.float32)
+
+    mat = dict(c.obj(hair.get("material", {"model": "karis"}), "hair.material"))
+    model = mat.get("model", "karis")
+    if model not in ("karis", "chiang"):
+        c.fail("hair.material.model", f"expected 'karis' or 'chiang', got {model!r}")
+    mat["model"] = model
+    if model == "chiang" and env is not None:
+        c.fail("lights", "an environment light needs the karis material (ChiangHair has no environment variant)")
+
+    spheres = []
+    raw_meshes = d.get("meshes", [])
+    if not isinstance(raw_meshes, list):
+        c.fail("meshes", "expected a list")
+    for i, m in enumerate(raw_meshes):
+        p = f"meshes[{i}]"
+        m = c.obj(m, p)
+        if m.get("type") != "sphere":
+            c.fail(f"{p}.type", f"expected 'sphere', got {m.get('type')!r}")
+        c.known(m, p, {"type", "center", "radius", "albedo"})
+        spheres.append(dict(center=c.vec3(m.get("center"), f"{p}.center"),
+                            radius=c.num(m.get("radius"), f"{p}.radius", 0, lo_open=True),
+                            albedo=c.vec3(m.get("albedo", [0.5, 0.5, 0.5]), f"{p}.albedo", 0, 1)))
+
+    r = c.obj(d.get("render", {}), "render")
+    c.known(r, "render", {"transparency", "layers", "shadow_map_size", "shadow_density", "pcf_radius", "background"})
+    transparency = r.get("transparency", "mlab")
+    if transparency not in ("mlab", "sorted"):
+        c.fail("render.transparency", f"expected 'mlab' or 'sorted', got {transparency!r}")
+    render = dict(
+        transparency=transparency,
+        layers=int(c.num(r.get("layers", 4), "render.layers", 1, 64)),
+        shadow_map_size=int(c.num(r.get("shadow_map_size", 1024), "render.shadow_map_size", 16, 8192)),
+        shadow_density=c.num(r.get("shadow_density", 20.0), "render.shadow_density", 0),
+        pcf_radius=int(c.num(r.get("pcf_radius", 1), "render.pcf_radius", 0, 8)),
+        background=c.vec3(r.get("background", [0, 0, 0]), "render.background", 0),
+    )
+    return Scene(camera, lights, env, points, radii, offsets, spheres, mat, render, source)
+
+
+def _read_strand_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """`x y z r` per line, blank lines between strands, `#` comments."""
+    try:
+        with open(path) as f:
+            lines = f.read().splitlines()
+    except FileNotFoundError:
+        c.fail("hair.file", f"{path}: file not found")
+    pts: list[np.ndarray] = []
+    rads: list[np.ndarray] = []
+    cur: list[list[float]] = []
+
+    def flush(line_no: int) -> None:
+        if cur:
+            if len(cur) < 2:
+                c.fail("hair.file", f"{path}:{line_no}: a strand needs at least 2 vertices")
+            a = np.array(cur, dtype=np.float64)
+            pts.append(a[:, :3])
+            rads.append(a[:, 3])
+            cur.clear()
+
+    for n, line in enumerate(lines, 1):
+        s = line.split("#", 1)[0].strip()
+        if not s:
+            flush(n)
+            continue
+        parts = s.split()
+        try:
+            vals = [float(x) for x in parts]
+        except ValueError:
+            c.fail("hair.file", f"{path}:{n}: expected 4 numbers 'x y z r', got {line!r}")
+        if len(vals) != 4 or not all(math.isfinite(v) for v in vals) or vals[3] < 0:
+            c.fail("hair.file", f"{path}:{n}: expected 4 finite numbers 'x y z r' with r >= 0, got {line!r}")
+        cur.append(vals)
+    flush(len(lines))
+    return pts, rads
+
+
+def write_strand_file(path: str, points: np.ndarray, radii: np.ndarray, offsets: np.ndarray) -> None:
+    """Writes strands in the `x y z r` text format (also Mitsuba's curve format)."""
+    with open(path, "w") as f:
+        for s in range(len(offsets) - 1):
+            for i in range(int(offsets[s]), int(offsets[s + 1])):
+                x, y, z = points[i]
+                f.write(f"{x:.7g} {y:.7g} {z:.7g} {radii[i]:.7g}\n")
+            f.write("\n")

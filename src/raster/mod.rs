@@ -1,0 +1,617 @@
+//! CPU software rasterizer for hair strand scenes.
+//!
+//! Pipeline (after Capcom's RE ENGINE strand renderer and Karis 2016):
+//!
+//! 1. strands are cut into segments, clipped to the near plane, projected,
+//!    and binned to 16×16 screen tiles;
+//! 2. shadow maps are built for the lights that cast shadows (depth of the
+//!    first hair and of opaque geometry; hair attenuates exponentially with
+//!    the depth behind the first hair, PCF-filtered, as Karis describes);
+//! 3. tiles are processed in parallel (rayon): opaque spheres are ray-cast
+//!    per pixel, every segment covering a pixel becomes a fragment with
+//!    analytic anti-aliased coverage (strands thinner than a pixel are drawn
+//!    one pixel wide with their alpha scaled by the width, as UE and RE4
+//!    do), shaded per pixel, and inserted into Multi-Layer Alpha Blending
+//!    (k layers) or an exact per-pixel sorted list;
+//! 4. layers are composited front to back over the opaque surface.
+//!
+//! Rendering is deterministic: every tile processes its segments in scene
+//! order, whatever the thread count. Non-finite values never reach the
+//! image (they are replaced by 0 and counted).
+
+pub mod oit;
+pub mod scene;
+pub mod shadow;
+
+use crate::batch::pool;
+use crate::fiber::karis::Transmittance;
+use crate::lighting::sh9_eval;
+use glam::Vec3;
+use oit::{Fragment, Mlab};
+use rayon::prelude::*;
+use scene::{HairShading, Light, RenderOptions, Scene, Transparency};
+use shadow::ShadowMap;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+const TILE: u32 = 16;
+
+/// The camera's basis and projection.
+#[derive(Debug, Clone, Copy)]
+pub struct View {
+    pub eye: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub forward: Vec3,
+    pub focal: f32,
+    pub width: u32,
+    pub height: u32,
+    pub near: f32,
+}
+
+impl View {
+    pub fn new(c: &scene::Camera, scene_radius: f32) -> Self {
+        let forward = (c.target - c.position).normalize_or(Vec3::Z);
+        let right = forward.cross(c.up).normalize_or(Vec3::X);
+        let up = right.cross(forward);
+        let focal = 0.5 * c.height as f32 / (0.5 * c.fov_y.to_radians()).tan();
+        Self {
+            eye: c.position,
+            right,
+            up,
+            forward,
+            focal,
+            width: c.width,
+            height: c.height,
+            near: (1e-4 * scene_radius).max(1e-6),
+        }
+    }
+
+    /// View-space coordinates (x right, y up, z forward depth).
+    #[inline]
+    pub fn to_view(&self, p: Vec3) -> Vec3 {
+        let d = p - self.eye;
+        Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
+    }
+
+    /// Pixel coordinates of a view-space point with z > 0.
+    #[inline]
+    pub fn project(&self, v: Vec3) -> (f32, f32) {
+        (
+            0.5 * self.width as f32 + self.focal * v.x / v.z,
+            0.5 * self.height as f32 - self.focal * v.y / v.z,
+        )
+    }
+
+    /// World-space direction of the ray through pixel position (x, y).
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32) -> Vec3 {
+        let vx = (x - 0.5 * self.width as f32) / self.focal;
+        let vy = (0.5 * self.height as f32 - y) / self.focal;
+        (self.forward + vx * self.right + vy * self.up).normalize()
+    }
+}
+
+/// A projected strand segment.
+#[derive(Debug, Clone, Copy)]
+struct Segment {
+    /// Screen positions of the ends.
+    a: [f32; 2],
+    b: [f32; 2],
+    /// View depths of the ends.
+    za: f32,
+    zb: f32,
+    /// Pixel widths at the ends.
+    wa: f32,
+    wb: f32,
+    /// World ends (after near-plane clipping).
+    pa: Vec3,
+    pb: Vec3,
+    /// The segment ends at a strand tip (round coverage there), else butt.
+    last: bool,
+}
+
+/// Statistics of one render.
+#[derive(Debug, Clone, Default)]
+pub struct RenderStats {
+    pub segments: usize,
+    pub segments_visible: usize,
+    pub fragments: u64,
+    pub non_finite_pixels: u64,
+}
+
+/// The rendered image: linear radiance, row-major, RGB.
+#[derive(Debug, Clone)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub data: Vec<f32>,
+}
+
+fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for (p, r) in scene.strands.points.iter().zip(&scene.strands.radii) {
+        lo = lo.min(*p - Vec3::splat(*r));
+        hi = hi.max(*p + Vec3::splat(*r));
+    }
+    for s in &scene.spheres {
+        lo = lo.min(s.center - Vec3::splat(s.radius));
+        hi = hi.max(s.center + Vec3::splat(s.radius));
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (Vec3::ZERO, 1.0);
+    }
+    let c = 0.5 * (lo + hi);
+    (c, (0.5 * (hi - lo).length()).max(1e-6))
+}
+
+fn build_segments(scene: &Scene, view: &View) -> Vec<Segment> {
+    let st = &scene.strands;
+    let mut out = Vec::new();
+    for s in 0..st.strand_count() {
+        let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+        for i in i0..i1.saturating_sub(1) {
+            let (mut pa, mut pb) = (st.points[i], st.points[i + 1]);
+            let (mut ra, mut rb) = (st.radii[i], st.radii[i + 1]);
+            let (mut va, mut vb) = (view.to_view(pa), view.to_view(pb));
+            // Clip to the near plane.
+            if va.z < view.near && vb.z < view.near {
+                continue;
+            }
+            if va.z < view.near || vb.z < view.near {
+                let t = (view.near - va.z) / (vb.z - va.z);
+                let pc = pa + (pb - pa) * t;
+                let rc = ra + (rb - ra) * t;
+                if va.z < view.near {
+                    pa = pc;
+                    ra = rc;
+                    va = view.to_view(pa);
+                } else {
+                    pb = pc;
+                    rb = rc;
+                    vb = view.to_view(pb);
+                }
+            }
+            let (a, b) = (view.project(va), view.project(vb));
+            out.push(Segment {
+                a: [a.0, a.1],
+                b: [b.0, b.1],
+                za: va.z,
+                zb: vb.z,
+                wa: 2.0 * ra * view.focal / va.z,
+                wb: 2.0 * rb * view.focal / vb.z,
+                pa,
+                pb,
+                last: i + 2 == i1,
+            });
+        }
+    }
+    out
+}
+
+/// Screen-space bounding box in tiles, or None when off screen.
+fn tile_range(s: &Segment, tiles_x: u32, tiles_y: u32) -> Option<(u32, u32, u32, u32)> {
+    let pad = 0.5 * s.wa.max(s.wb).max(1.0) + 1.0;
+    let x0 = s.a[0].min(s.b[0]) - pad;
+    let x1 = s.a[0].max(s.b[0]) + pad;
+    let y0 = s.a[1].min(s.b[1]) - pad;
+    let y1 = s.a[1].max(s.b[1]) + pad;
+    if !(x0.is_finite() && x1.is_finite() && y0.is_finite() && y1.is_finite()) {
+        return None;
+    }
+    let w = (tiles_x * TILE) as f32;
+    let h = (tiles_y * TILE) as f32;
+    if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
+        return None;
+    }
+    let tx0 = (x0.max(0.0) as u32) / TILE;
+    let ty0 = (y0.max(0.0) as u32) / TILE;
+    let tx1 = ((x1.min(w - 1.0)) as u32) / TILE;
+    let ty1 = ((y1.min(h - 1.0)) as u32) / TILE;
+    Some((tx0, ty0, tx1.min(tiles_x - 1), ty1.min(tiles_y - 1)))
+}
+
+/// Coverage of pixel center `p` by segment `s`, and the screen parameter t.
+#[inline]
+fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
+    let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    let t_raw = if len2 > 0.0 {
+        ((p[0] - s.a[0]) * d[0] + (p[1] - s.a[1]) * d[1]) / len2
+    } else {
+        0.0
+    };
+    // Butt joints: each pixel belongs to one segment of a polyline (no
+    // double coverage at vertices); the strand's tip gets a rounded end.
+    let inside = if s.last {
+        t_raw >= 0.0
+    } else {
+        (0.0..1.0).contains(&t_raw)
+    };
+    if !inside && len2 > 0.0 {
+        return None;
+    }
+    let t = t_raw.clamp(0.0, 1.0);
+    let c = [s.a[0] + t * d[0], s.a[1] + t * d[1]];
+    let dist = ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt();
+    let mut w = s.wa + (s.wb - s.wa) * t;
+    let mut scale = 1.0;
+    if w < 1.0 {
+        // Sub-pixel strand: one pixel wide, alpha scaled by its width.
+        scale = w.max(0.0);
+        w = 1.0;
+    }
+    let cov = (0.5 * w + 0.5 - dist).clamp(0.0, 1.0) * scale;
+    (cov > 0.0).then_some((cov, t))
+}
+
+/// Radiance scattered by hair at `p` with tangent `t` towards the eye.
+fn shade_hair(
+    scene: &Scene,
+    env_model: Option<&crate::fiber::karis::KarisHair<f32>>,
+    shadows: &[Option<ShadowMap>],
+    p: Vec3,
+    t: Vec3,
+    v: Vec3,
+) -> Vec3 {
+    let mut out = Vec3::ZERO;
+    for (light, sm) in scene.lights.iter().zip(shadows) {
+        let (l, e) = match *light {
+            Light::Directional {
+                direction,
+                intensity,
+                ..
+            } => (direction, intensity),
+            Light::Point {
+                position,
+                intensity,
+                ..
+            } => {
+                let d = position - p;
+                let r2 = d.length_squared().max(1e-12);
+                (d / r2.sqrt(), intensity / r2)
+            }
+        };
+        let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
+        if vis <= 0.0 {
+            continue;
+        }
+        let f = match &scene.hair {
+            HairShading::Karis(k) => {
+                let tr = Transmittance {
+                    shadow: vis,
+                    ..Default::default()
+                };
+                Vec3::from(k.eval(&l.to_array(), &v.to_array(), &t.to_array(), &tr))
+            }
+            HairShading::ChiangFar(c) => {
+                let (wi, wo) = fiber_frame(t, l, v);
+                Vec3::from(c.eval_far(&wi, &wo))
+            }
+        };
+        out += f * e * vis;
+    }
+    if let (Some(env), Some(m)) = (&scene.environment, env_model) {
+        out += Vec3::from(m.dispatch(EnvOne { v, t, sh: &env.sh }));
+    }
+    out
+}
+
+struct EnvOne<'a> {
+    v: Vec3,
+    t: Vec3,
+    sh: &'a [[f32; 3]; 9],
+}
+
+impl crate::fiber::karis::LobeVisitor<f32> for EnvOne<'_> {
+    type Out = [f32; 3];
+    fn visit<const R: bool, const TT: bool, const TRT: bool, const MS: bool>(
+        self,
+        m: &crate::fiber::karis::KarisHair<f32>,
+    ) -> [f32; 3] {
+        m.env_lobes_static::<R, TT, TRT, MS>(&self.v.to_array(), &self.t.to_array(), self.sh)
+    }
+}
+
+/// `(wi, wo)` in a fiber frame with y = tangent (far field: the normal's
+/// rotation about y does not matter).
+#[inline]
+fn fiber_frame(t: Vec3, l: Vec3, v: Vec3) -> ([f32; 3], [f32; 3]) {
+    let n = t.any_orthonormal_vector();
+    let x = t.cross(n);
+    let to = |w: Vec3| [w.dot(x), w.dot(t), w.dot(n)];
+    (to(l), to(v))
+}
+
+/// Diffuse radiance of an opaque surface point.
+fn shade_diffuse(
+    scene: &Scene,
+    shadows: &[Option<ShadowMap>],
+    p: Vec3,
+    n: Vec3,
+    albedo: Vec3,
+) -> Vec3 {
+    let mut e_total = Vec3::ZERO;
+    for (light, sm) in scene.lights.iter().zip(shadows) {
+        let (l, e) = match *light {
+            Light::Directional {
+                direction,
+                intensity,
+                ..
+            } => (direction, intensity),
+            Light::Point {
+                position,
+                intensity,
+                ..
+            } => {
+                let d = position - p;
+                let r2 = d.length_squared().max(1e-12);
+                (d / r2.sqrt(), intensity / r2)
+            }
+        };
+        let c = n.dot(l);
+        if c <= 0.0 {
+            continue;
+        }
+        let vis = sm
+            .as_ref()
+            .map_or(1.0, |m| m.visibility(p + n * 1e-4 * m.scale()));
+        e_total += e * c * vis;
+    }
+    if let Some(env) = &scene.environment {
+        // Irradiance of band-limited SH radiance: convolution with the
+        // clamped cosine (Ramamoorthi & Hanrahan 2001): π, 2π/3, π/4.
+        let a = [
+            std::f32::consts::PI,
+            2.0 * std::f32::consts::PI / 3.0,
+            std::f32::consts::PI / 4.0,
+        ];
+        let band = [0, 1, 1, 1, 2, 2, 2, 2, 2];
+        let sh: [[f32; 3]; 9] = std::array::from_fn(|k| env.sh[k].map(|c| c * a[band[k]]));
+        e_total += Vec3::from(sh9_eval(&sh, &n.to_array())).max(Vec3::ZERO);
+    }
+    albedo * std::f32::consts::FRAC_1_PI * e_total
+}
+
+/// Renders `scene`; returns the image and statistics.
+pub fn render(scene: &Scene, opts: &RenderOptions) -> (Image, RenderStats) {
+    let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
+    render_with_progress(scene, opts, &done, &cancel).expect("not cancelled")
+}
+
+/// Number of tiles a render of `scene` processes (the progress total).
+pub fn tile_count(scene: &Scene) -> usize {
+    (scene.camera.width.div_ceil(TILE) * scene.camera.height.div_ceil(TILE)) as usize
+}
+
+/// [`render`], counting finished tiles in `done` and stopping early (None)
+/// once `cancel` is set.
+pub fn render_with_progress(
+    scene: &Scene,
+    opts: &RenderOptions,
+    done: &AtomicUsize,
+    cancel: &AtomicBool,
+) -> Option<(Image, RenderStats)> {
+    let (center, radius) = scene_bounds(scene);
+    let view = View::new(
+        &scene.camera,
+        (center - scene.camera.position).length() + radius,
+    );
+    let (w, h) = (view.width, view.height);
+    let segs = build_segments(scene, &view);
+    let world = segs_world(scene);
+    let shadows: Vec<Option<ShadowMap>> = pool().install(|| {
+        scene
+            .lights
+            .par_iter()
+            .map(|l| ShadowMap::build(l, scene, &world, center, radius, opts))
+            .collect()
+    });
+    let env_model = match (&scene.environment, &scene.hair) {
+        (Some(_), HairShading::Karis(k)) => Some(k.environment_variant()),
+        _ => None,
+    };
+
+    let tiles_x = w.div_ceil(TILE);
+    let tiles_y = h.div_ceil(TILE);
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
+    let mut visible = 0;
+    for (i, s) in segs.iter().enumerate() {
+        if let Some((x0, y0, x1, y1)) = tile_range(s, tiles_x, tiles_y) {
+            visible += 1;
+            for ty in y0..=y1 {
+                for tx in x0..=x1 {
+                    bins[(ty * tiles_x + tx) as usize].push(i as u32);
+                }
+            }
+        }
+    }
+
+    let results: Vec<(Vec<f32>, u64, u64)> = pool().install(|| {
+        bins.par_iter()
+            .enumerate()
+            .map(|(ti, bin)| {
+                if cancel.load(Ordering::Relaxed) {
+                    return (Vec::new(), 0, 0);
+                }
+                let ctx = TileContext {
+                    scene,
+                    opts,
+                    view: &view,
+                    shadows: &shadows,
+                    env_model: env_model.as_ref(),
+                    segs: &segs,
+                };
+                let r = render_tile(&ctx, bin, ti as u32 % tiles_x, ti as u32 / tiles_x);
+                done.fetch_add(1, Ordering::Relaxed);
+                r
+            })
+            .collect()
+    });
+    if cancel.load(Ordering::Relaxed) {
+        return None;
+    }
+
+    let mut data = vec![0.0f32; (w * h * 3) as usize];
+    let mut stats = RenderStats {
+        segments: segs.len(),
+        segments_visible: visible,
+        ..Default::default()
+    };
+    for (ti, (tile, frags, bad)) in results.into_iter().enumerate() {
+        stats.fragments += frags;
+        stats.non_finite_pixels += bad;
+        let (tx, ty) = (ti as u32 % tiles_x, ti as u32 / tiles_x);
+        for j in 0..TILE {
+            let y = ty * TILE + j;
+            if y >= h {
+                break;
+            }
+            for i in 0..TILE {
+                let x = tx * TILE + i;
+                if x >= w {
+                    break;
+                }
+                let src = ((j * TILE + i) * 3) as usize;
+                let dst = ((y * w + x) * 3) as usize;
+                data[dst..dst + 3].copy_from_slice(&tile[src..src + 3]);
+            }
+        }
+    }
+    Some((
+        Image {
+            width: w,
+            height: h,
+            data,
+        },
+        stats,
+    ))
+}
+
+/// World-space segments for shadow maps (all strands, unclipped).
+fn segs_world(scene: &Scene) -> Vec<(Vec3, Vec3, f32, f32)> {
+    let st = &scene.strands;
+    let mut out = Vec::new();
+    for s in 0..st.strand_count() {
+        let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+        for i in i0..i1.saturating_sub(1) {
+            out.push((st.points[i], st.points[i + 1], st.radii[i], st.radii[i + 1]));
+        }
+    }
+    out
+}
+
+struct TileContext<'a> {
+    scene: &'a Scene,
+    opts: &'a RenderOptions,
+    view: &'a View,
+    shadows: &'a [Option<ShadowMap>],
+    env_model: Option<&'a crate::fiber::karis::KarisHair<f32>>,
+    segs: &'a [Segment],
+}
+
+fn render_tile(ctx: &TileContext<'_>, bin: &[u32], tx: u32, ty: u32) -> (Vec<f32>, u64, u64) {
+    let (scene, opts, view, shadows, segs) = (ctx.scene, ctx.opts, ctx.view, ctx.shadows, ctx.segs);
+    let mut out = vec![0.0f32; (TILE * TILE * 3) as usize];
+    let mut frags = 0u64;
+    let mut bad = 0u64;
+    let mut sorted: Vec<Fragment> = Vec::new();
+    for j in 0..TILE {
+        let y = ty * TILE + j;
+        if y >= view.height {
+            break;
+        }
+        for i in 0..TILE {
+            let x = tx * TILE + i;
+            if x >= view.width {
+                break;
+            }
+            let p = [x as f32 + 0.5, y as f32 + 0.5];
+            // Opaque surface (nearest sphere) or background.
+            let ray = view.ray(p[0], p[1]);
+            let mut opaque_depth = f32::INFINITY;
+            let mut base = opts.background;
+            for s in &scene.spheres {
+                if let Some(t) = ray_sphere(view.eye, ray, s.center, s.radius) {
+                    let depth = t * ray.dot(view.forward);
+                    if depth < opaque_depth && depth > view.near {
+                        opaque_depth = depth;
+                        let hit = view.eye + ray * t;
+                        base = shade_diffuse(
+                            scene,
+                            shadows,
+                            hit,
+                            (hit - s.center) / s.radius,
+                            s.albedo,
+                        );
+                    }
+                }
+            }
+            let mut mlab = match opts.transparency {
+                Transparency::Mlab(k) => Some(Mlab::new(k)),
+                Transparency::Sorted => None,
+            };
+            sorted.clear();
+            for &si in bin {
+                let s = &segs[si as usize];
+                let Some((cov, t)) = coverage(s, p) else {
+                    continue;
+                };
+                // Perspective-correct depth and world position.
+                let inv = (1.0 - t) / s.za + t / s.zb;
+                let depth = 1.0 / inv;
+                if !(depth > view.near && depth < opaque_depth) {
+                    continue;
+                }
+                let tw = (t / s.zb) / inv;
+                let pw = s.pa + (s.pb - s.pa) * tw;
+                let tangent = (s.pb - s.pa).normalize_or_zero();
+                let v = (view.eye - pw).normalize_or_zero();
+                let c = shade_hair(scene, ctx.env_model, shadows, pw, tangent, v);
+                let frag = Fragment {
+                    depth,
+                    color: c * cov,
+                    transmittance: 1.0 - cov,
+                };
+                frags += 1;
+                match &mut mlab {
+                    Some(m) => m.insert(frag),
+                    None => sorted.push(frag),
+                }
+            }
+            let col = match &mlab {
+                Some(m) => m.resolve(base),
+                None => oit::resolve_sorted(&mut sorted, base),
+            };
+            let o = ((j * TILE + i) * 3) as usize;
+            if col.is_finite() {
+                out[o..o + 3].copy_from_slice(&col.to_array());
+            } else {
+                bad += 1;
+            }
+        }
+    }
+    (out, frags, bad)
+}
+
+/// Nearest positive ray parameter of a ray-sphere hit.
+#[inline]
+pub fn ray_sphere(o: Vec3, d: Vec3, c: Vec3, r: f32) -> Option<f32> {
+    let oc = o - c;
+    let b = oc.dot(d);
+    let cc = oc.length_squared() - r * r;
+    let disc = b * b - cc;
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let t0 = -b - s;
+    let t1 = -b + s;
+    if t0 > 0.0 {
+        Some(t0)
+    } else if t1 > 0.0 {
+        None // camera inside the sphere: its inside is not drawn
+    } else {
+        None
+    }
+}

@@ -1,0 +1,123 @@
+//! The renderer's scene: camera, lights, hair strands, opaque spheres and
+//! the hair material. Built (and validated) from the JSON scene format by
+//! `python/hairshade/scene.py`; the Rust types assume valid input and
+//! guard only against what would panic or poison an image.
+
+use crate::fiber::chiang::ChiangHair;
+use crate::fiber::karis::KarisHair;
+use glam::Vec3;
+
+/// A pinhole camera.
+#[derive(Debug, Clone)]
+pub struct Camera {
+    pub position: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_y: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// A light source with RGB intensity.
+#[derive(Debug, Clone)]
+pub enum Light {
+    /// Light arriving along `-direction` (direction points towards the light),
+    /// `intensity` is the irradiance on a surface facing it.
+    Directional {
+        direction: Vec3,
+        intensity: Vec3,
+        shadows: bool,
+    },
+    /// Isotropic point light; `intensity` in W/sr (falls off as 1/d²).
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+        shadows: bool,
+    },
+}
+
+/// Band-2 SH environment radiance (9 RGB coefficients).
+#[derive(Debug, Clone)]
+pub struct Environment {
+    pub sh: [[f32; 3]; 9],
+}
+
+/// Hair as polylines with per-vertex radius.
+#[derive(Debug, Clone, Default)]
+pub struct Strands {
+    pub points: Vec<Vec3>,
+    pub radii: Vec<f32>,
+    /// `offsets[s]..offsets[s+1]` are strand `s`'s vertices.
+    pub offsets: Vec<u32>,
+}
+
+impl Strands {
+    pub fn strand_count(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+}
+
+/// An opaque diffuse sphere.
+#[derive(Debug, Clone)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub albedo: Vec3,
+}
+
+/// How hair is shaded.
+#[derive(Debug, Clone)]
+pub enum HairShading {
+    /// UE4 `HairShading()` (default).
+    Karis(KarisHair<f32>),
+    /// Chiang 2016 far field (for comparison with Mitsuba's `hair`).
+    ChiangFar(Box<ChiangHair<f32>>),
+}
+
+/// Order-independent transparency.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Transparency {
+    /// Multi-Layer Alpha Blending with `k` layers.
+    Mlab(usize),
+    /// Every fragment kept and sorted: the exact result MLAB approximates.
+    Sorted,
+}
+
+/// Renderer settings.
+#[derive(Debug, Clone)]
+pub struct RenderOptions {
+    pub transparency: Transparency,
+    /// Shadow-map resolution (square).
+    pub shadow_map_size: u32,
+    /// Optical density of hair in shadow maps: transmittance
+    /// `exp(−density · depth behind the first hair)`, per scene unit.
+    pub shadow_density: f32,
+    /// Shadow-map PCF kernel radius in texels (0 = one tap).
+    pub pcf_radius: i32,
+    /// Background radiance.
+    pub background: Vec3,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            transparency: Transparency::Mlab(4),
+            shadow_map_size: 1024,
+            shadow_density: 20.0,
+            pcf_radius: 1,
+            background: Vec3::ZERO,
+        }
+    }
+}
+
+/// Everything the renderer draws.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    pub camera: Camera,
+    pub lights: Vec<Light>,
+    pub environment: Option<Environment>,
+    pub strands: Strands,
+    pub spheres: Vec<Sphere>,
+    pub hair: HairShading,
+}

@@ -1,0 +1,290 @@
+//! Shadow maps for hair (Karis 2016): per light, the depth of the first hair
+//! and of the first opaque surface seen from the light. A receiver at depth z
+//! behind the first hair at z_h is attenuated by `exp(−density · (z − z_h))`
+//! (an exponential falloff instead of a hard depth test: hair is a
+//! participating volume), opaque occluders block fully; both filtered by PCF.
+//! Directional lights use an orthographic map over the scene's bounding
+//! sphere, point lights a perspective map from the light towards it.
+
+use super::ray_sphere;
+use super::scene::{Light, RenderOptions, Scene};
+use glam::Vec3;
+
+/// A built shadow map.
+#[derive(Debug, Clone)]
+pub struct ShadowMap {
+    size: u32,
+    hair: Vec<f32>,
+    opaque: Vec<f32>,
+    proj: LightProjection,
+    density: f32,
+    pcf: i32,
+    bias: f32,
+    scale: f32,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum LightProjection {
+    /// Orthographic: origin, basis, half extent.
+    Ortho {
+        origin: Vec3,
+        right: Vec3,
+        up: Vec3,
+        forward: Vec3,
+        half: f32,
+    },
+    /// Perspective from a point light: eye, basis, focal (in map units).
+    Persp {
+        eye: Vec3,
+        right: Vec3,
+        up: Vec3,
+        forward: Vec3,
+        tan_half: f32,
+    },
+}
+
+impl LightProjection {
+    /// (u, v) in [0, 1]² and depth along the light.
+    #[inline]
+    fn map(&self, p: Vec3) -> Option<(f32, f32, f32)> {
+        match *self {
+            LightProjection::Ortho {
+                origin,
+                right,
+                up,
+                forward,
+                half,
+            } => {
+                let d = p - origin;
+                Some((
+                    0.5 + 0.5 * d.dot(right) / half,
+                    0.5 - 0.5 * d.dot(up) / half,
+                    d.dot(forward),
+                ))
+            }
+            LightProjection::Persp {
+                eye,
+                right,
+                up,
+                forward,
+                tan_half,
+            } => {
+                let d = p - eye;
+                let z = d.dot(forward);
+                if z <= 0.0 {
+                    return None;
+                }
+                Some((
+                    0.5 + 0.5 * d.dot(right) / (z * tan_half),
+                    0.5 - 0.5 * d.dot(up) / (z * tan_half),
+                    z,
+                ))
+            }
+        }
+    }
+}
+
+fn basis(forward: Vec3) -> (Vec3, Vec3) {
+    let right = forward.any_orthonormal_vector();
+    (right, forward.cross(right))
+}
+
+impl ShadowMap {
+    /// The map for `light`, or None when it casts no shadows.
+    pub fn build(
+        light: &Light,
+        scene: &Scene,
+        segments: &[(Vec3, Vec3, f32, f32)],
+        center: Vec3,
+        radius: f32,
+        opts: &RenderOptions,
+    ) -> Option<Self> {
+        let proj = match *light {
+            Light::Directional {
+                direction,
+                shadows: true,
+                ..
+            } => {
+                let forward = -direction.normalize_or(Vec3::Z);
+                let (right, up) = basis(forward);
+                LightProjection::Ortho {
+                    origin: center - forward * (2.0 * radius),
+                    right,
+                    up,
+                    forward,
+                    half: radius,
+                }
+            }
+            Light::Point {
+                position,
+                shadows: true,
+                ..
+            } => {
+                let to = center - position;
+                let dist = to.length();
+                let forward = to.normalize_or(Vec3::Z);
+                let (right, up) = basis(forward);
+                // Cover the bounding sphere (or everything, from inside it).
+                let tan_half = if dist > radius * 1.01 {
+                    radius / (dist * dist - radius * radius).sqrt()
+                } else {
+                    4.0
+                };
+                LightProjection::Persp {
+                    eye: position,
+                    right,
+                    up,
+                    forward,
+                    tan_half,
+                }
+            }
+            _ => return None,
+        };
+        let n = opts.shadow_map_size.max(16);
+        let texel = 2.0 * radius / n as f32;
+        let mut m = ShadowMap {
+            size: n,
+            hair: vec![f32::INFINITY; (n * n) as usize],
+            opaque: vec![f32::INFINITY; (n * n) as usize],
+            proj,
+            density: opts.shadow_density,
+            pcf: opts.pcf_radius.max(0),
+            bias: 2.0 * texel,
+            scale: radius,
+        };
+        m.draw_hair(segments);
+        m.draw_spheres(scene);
+        Some(m)
+    }
+
+    /// The scene radius the map was built for (for offsets).
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    fn draw_hair(&mut self, segments: &[(Vec3, Vec3, f32, f32)]) {
+        let n = self.size as f32;
+        for &(a, b, ra, rb) in segments {
+            let (Some(pa), Some(pb)) = (self.proj.map(a), self.proj.map(b)) else {
+                continue;
+            };
+            let (ax, ay) = (pa.0 * n, pa.1 * n);
+            let (bx, by) = (pb.0 * n, pb.1 * n);
+            let steps = ((bx - ax).abs().max((by - ay).abs()).ceil() as usize)
+                .clamp(1, 4 * self.size as usize);
+            // Thick lines: every texel within max(half a texel, the radius) of the segment.
+            let half_w = match self.proj {
+                LightProjection::Ortho { half, .. } => 0.5 * (ra.max(rb)) / half * n,
+                LightProjection::Persp { tan_half, .. } => {
+                    0.5 * ra.max(rb) / (pa.2.min(pb.2).max(1e-6) * tan_half) * n
+                }
+            }
+            .max(0.5);
+            let reach = half_w.ceil() as i32;
+            for k in 0..=steps {
+                let t = k as f32 / steps as f32;
+                let (x, y, z) = (
+                    ax + (bx - ax) * t,
+                    ay + (by - ay) * t,
+                    pa.2 + (pb.2 - pa.2) * t,
+                );
+                for dy in -reach..=reach {
+                    for dx in -reach..=reach {
+                        let (xi, yi) = (x as i32 + dx, y as i32 + dy);
+                        if xi < 0 || yi < 0 || xi >= self.size as i32 || yi >= self.size as i32 {
+                            continue;
+                        }
+                        let cx = xi as f32 + 0.5 - x;
+                        let cy = yi as f32 + 0.5 - y;
+                        if cx * cx + cy * cy > (half_w + 0.5).powi(2) {
+                            continue;
+                        }
+                        let idx = (yi as u32 * self.size + xi as u32) as usize;
+                        if z < self.hair[idx] {
+                            self.hair[idx] = z;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn draw_spheres(&mut self, scene: &Scene) {
+        if scene.spheres.is_empty() {
+            return;
+        }
+        let n = self.size;
+        for yi in 0..n {
+            for xi in 0..n {
+                let (u, v) = ((xi as f32 + 0.5) / n as f32, (yi as f32 + 0.5) / n as f32);
+                let (o, d) = match self.proj {
+                    LightProjection::Ortho {
+                        origin,
+                        right,
+                        up,
+                        forward,
+                        half,
+                    } => (
+                        origin + right * ((2.0 * u - 1.0) * half) + up * ((1.0 - 2.0 * v) * half),
+                        forward,
+                    ),
+                    LightProjection::Persp {
+                        eye,
+                        right,
+                        up,
+                        forward,
+                        tan_half,
+                    } => (
+                        eye,
+                        (forward
+                            + right * ((2.0 * u - 1.0) * tan_half)
+                            + up * ((1.0 - 2.0 * v) * tan_half))
+                            .normalize(),
+                    ),
+                };
+                let mut best = f32::INFINITY;
+                for s in &scene.spheres {
+                    if let Some(t) = ray_sphere(o, d, s.center, s.radius) {
+                        let p = o + d * t;
+                        if let Some((_, _, z)) = self.proj.map(p) {
+                            best = best.min(z);
+                        }
+                    }
+                }
+                self.opaque[(yi * n + xi) as usize] = best;
+            }
+        }
+    }
+
+    /// Light visibility at `p` in [0, 1].
+    pub fn visibility(&self, p: Vec3) -> f32 {
+        let Some((u, v, z)) = self.proj.map(p) else {
+            return 1.0;
+        };
+        let n = self.size as i32;
+        let (x, y) = ((u * n as f32) as i32, (v * n as f32) as i32);
+        let mut sum = 0.0;
+        let mut count = 0.0;
+        for dy in -self.pcf..=self.pcf {
+            for dx in -self.pcf..=self.pcf {
+                let (xi, yi) = (x + dx, y + dy);
+                count += 1.0;
+                if xi < 0 || yi < 0 || xi >= n || yi >= n {
+                    sum += 1.0;
+                    continue;
+                }
+                let idx = (yi * n + xi) as usize;
+                if z > self.opaque[idx] + self.bias {
+                    continue;
+                }
+                let behind = z - self.hair[idx] - self.bias;
+                sum += if behind > 0.0 {
+                    (-self.density * behind).exp()
+                } else {
+                    1.0
+                };
+            }
+        }
+        sum / count
+    }
+}
