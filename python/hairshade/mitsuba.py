@@ -23,6 +23,9 @@ import numpy as np
 
 from .chiang import ChiangHair
 
+if False:  # typing only
+    from .scene import Scene  # noqa: F401
+
 # Newest first; libLLVM 16+ is what drjit's LLVM backend needs.
 _LLVM_GLOBS = [
     "/usr/lib/llvm-{v}/lib/libLLVM.so",
@@ -172,3 +175,112 @@ class MitsubaHair:
             weight[i] = np.array(w)
             pdf[i] = float(bs.pdf)
         return wo, weight, pdf
+
+
+# -- whole scenes ----------------------------------------------------------------
+
+
+def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "direct", max_depth: int = 64,
+               width: int | None = None, height: int | None = None, hair_params: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The Mitsuba scene dictionary of a hairshade scene. Strands become a
+    ``bsplinecurve`` (written to ``strand_file``; its frame has the tangent
+    on local y as the ``hair`` BSDF requires, which ``linearcurve``'s does
+    not) whose control points are the strand's vertices with both ends
+    tripled, so that the curve reaches them (for the dense, smooth strands of
+    hair scenes it stays within a fraction of a pixel of the polyline); the
+    curve carries Mitsuba's ``hair``
+    BSDF: the scene's ChiangHair material, or for a KarisHair material the
+    ChiangHair fitted by :func:`hairshade.mapping.chiang_params` (or
+    ``hair_params`` when given). Spheres get a diffuse BSDF."""
+    from .chiang import ChiangHair
+    from .mapping import chiang_params
+    from .scene import write_strand_file
+
+    cam = scene.camera
+    w, h = width or cam["width"], height or cam["height"]
+    d: dict[str, Any] = {
+        "type": "scene",
+        "integrator": {"type": "direct"} if integrator == "direct" else {"type": "path", "max_depth": int(max_depth)},
+        "sensor": {
+            "type": "perspective",
+            "fov": float(cam["fov"]),
+            "fov_axis": "y",
+            "to_world": mi.ScalarTransform4f().look_at(origin=cam["position"], target=cam["target"], up=cam["up"]),
+            "film": {"type": "hdrfilm", "width": int(w), "height": int(h), "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent", "sample_count": int(spp)},
+        },
+    }
+    if integrator not in ("direct", "path"):
+        raise ValueError(f"integrator: must be 'direct' or 'path', got {integrator!r}")
+    if scene.strand_count > 0:
+        if hair_params is None:
+            hair_params = scene.hair.params if isinstance(scene.hair, ChiangHair) else chiang_params(scene.hair)
+            hair_params = {k: v for k, v in hair_params.items() if k != "i0"}
+        pts, rad, off = _clamped_controls(scene.points, scene.radii, scene.offsets)
+        write_strand_file(strand_file, pts, rad, off)
+        d["hair"] = {"type": "bsplinecurve", "filename": strand_file, "bsdf": hair_dict(ChiangHair(**hair_params))}
+    for i, s in enumerate(scene.spheres):
+        d[f"sphere_{i}"] = {
+            "type": "sphere", "center": s["center"], "radius": s["radius"],
+            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": s["albedo"]}},
+        }
+    for i, l in enumerate(scene.lights):
+        if l["type"] == "directional":
+            v = np.asarray(l["vector"], dtype=np.float64)
+            d[f"light_{i}"] = {"type": "directional", "direction": (-v / np.linalg.norm(v)).tolist(),
+                               "irradiance": {"type": "rgb", "value": l["intensity"]}}
+        else:
+            d[f"light_{i}"] = {"type": "point", "position": l["vector"], "intensity": {"type": "rgb", "value": l["intensity"]}}
+    if scene.environment_sh is not None:
+        sh = np.asarray(scene.environment_sh)
+        if np.any(sh[1:] != 0):
+            raise ValueError("environment: the Mitsuba bridge supports constant environments only (SH bands > 0 given)")
+        d["environment"] = {"type": "constant", "radiance": {"type": "rgb", "value": (sh[0] * 0.28209479177387814).tolist()}}
+    return d
+
+
+def _clamped_controls(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray):
+    """Each strand's vertices with the first and last repeated twice more."""
+    pts, rad, off = [], [], [0]
+    for s in range(len(offsets) - 1):
+        i0, i1 = int(offsets[s]), int(offsets[s + 1])
+        idx = [i0, i0] + list(range(i0, i1)) + [i1 - 1, i1 - 1]
+        pts.append(points[idx])
+        rad.append(radii[idx])
+        off.append(off[-1] + len(idx))
+    return np.concatenate(pts), np.concatenate(rad), np.array(off)
+
+
+def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth: int = 64, width: int | None = None,
+           height: int | None = None, variant: str | None = None, passes: int | None = None, seed: int = 0,
+           progress: bool | None = None, hair_params: dict[str, Any] | None = None) -> np.ndarray:
+    """Reference render of ``scene`` by Mitsuba 3 -> (H, W, 3) float32.
+
+    The samples are split into ``passes`` renders with different seeds
+    (default: 8, or spp if fewer) so that a progress bar can be shown;
+    Ctrl-C stops between passes."""
+    import sys
+    import tempfile
+    import time
+
+    if spp < 1:
+        raise ValueError(f"spp: must be >= 1, got {spp}")
+    v = variant or default_variant()
+    mi.set_variant(v)
+    passes = max(1, min(passes or 8, spp))
+    show = sys.stderr.isatty() if progress is None else progress
+    with tempfile.TemporaryDirectory() as tmp:
+        per = [spp // passes + (1 if k < spp % passes else 0) for k in range(passes)]
+        acc = None
+        start = time.perf_counter()
+        for k, n in enumerate(per):
+            d = scene_dict(scene, f"{tmp}/strands.txt", n, integrator, max_depth, width, height, hair_params)
+            mscene = mi.load_dict(d)
+            img = np.array(mi.render(mscene, spp=n, seed=seed * 1000 + k), dtype=np.float64) * n
+            acc = img if acc is None else acc + img
+            if show:
+                sys.stderr.write(f"\rmitsuba [{'#' * int(30 * (k + 1) / passes):30s}] pass {k + 1}/{passes} {time.perf_counter() - start:5.1f}s")
+                sys.stderr.flush()
+        if show:
+            sys.stderr.write("\n")
+    return (acc / spp).astype(np.float32)[..., :3]

@@ -285,7 +285,10 @@ fn shade_hair(
                 Vec3::from(k.eval(&l.to_array(), &v.to_array(), &t.to_array(), &tr))
             }
             HairShading::ChiangFar(c) => {
-                let (wi, wo) = fiber_frame(t, l, v);
+                // Mitsuba's convention: wi towards the viewer (its offset h is
+                // the one averaged across the fiber's visible width), wo towards
+                // the light.
+                let (wi, wo) = fiber_frame(t, v, l);
                 Vec3::from(c.eval_far(&wi, &wo))
             }
         };
@@ -313,14 +316,14 @@ impl crate::fiber::karis::LobeVisitor<f32> for EnvOne<'_> {
     }
 }
 
-/// `(wi, wo)` in a fiber frame with y = tangent (far field: the normal's
+/// `(a, b)` in a fiber frame with y = tangent (far field: the normal's
 /// rotation about y does not matter).
 #[inline]
-fn fiber_frame(t: Vec3, l: Vec3, v: Vec3) -> ([f32; 3], [f32; 3]) {
+fn fiber_frame(t: Vec3, a: Vec3, b: Vec3) -> ([f32; 3], [f32; 3]) {
     let n = t.any_orthonormal_vector();
     let x = t.cross(n);
     let to = |w: Vec3| [w.dot(x), w.dot(t), w.dot(n)];
-    (to(l), to(v))
+    (to(a), to(b))
 }
 
 /// Diffuse radiance of an opaque surface point.
