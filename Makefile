@@ -1,5 +1,6 @@
 # hairshade — the two commands of the README:
-#   make run    build, then validate the Chiang BSDF against Mitsuba 3 (prints tables)
+#   make run    build, validate the BSDFs against Mitsuba 3, render the demo head with
+#               the rasterizer and with Mitsuba (prints tables, times, errors; images in out/)
 #   make test   build, then the whole test suite (cargo test, pytest, notebooks)
 # Everything else (virtual environment, Python packages, the LLVM library
 # Mitsuba's JIT variant wants) is installed by the targets below.
@@ -16,6 +17,7 @@ export PATH := $(abspath $(VENV))/bin:$(PATH)
 
 run: build
 	$(PY) -m hairshade validate
+	$(PY) -m hairshade demo
 
 test: build
 	cargo test --release --all-targets

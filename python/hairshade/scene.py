@@ -33,6 +33,8 @@ A scene file::
   :mod:`hairshade.generate`). Radius 0 is allowed and draws nothing.
 - ``material.model`` is ``karis`` (KarisHair keyword arguments) or
   ``chiang`` (ChiangHair keyword arguments; shaded with its far field).
+- ``render.background`` is the radiance behind everything when the scene
+  has no environment light; with one, the environment itself is seen.
 - Every field is checked on load; an error names the file, the field's path
   (``hair.strands[3].points[5]``) and what is wrong. Non-finite numbers are
   errors.

@@ -533,7 +533,11 @@ fn render_tile(ctx: &TileContext<'_>, bin: &[u32], tx: u32, ty: u32) -> (Vec<f32
             // Opaque surface (nearest sphere) or background.
             let ray = view.ray(p[0], p[1]);
             let mut opaque_depth = f32::INFINITY;
-            let mut base = opts.background;
+            // Background: the environment seen along the ray (clamped SH), else the constant.
+            let mut base = match &scene.environment {
+                Some(env) => Vec3::from(sh9_eval(&env.sh, &ray.to_array())).max(Vec3::ZERO),
+                None => opts.background,
+            };
             for s in &scene.spheres {
                 if let Some(t) = ray_sphere(view.eye, ray, s.center, s.radius) {
                     let depth = t * ray.dot(view.forward);
