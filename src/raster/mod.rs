@@ -515,36 +515,30 @@ struct TileContext<'a> {
 
 fn render_tile(ctx: &TileContext<'_>, bin: &[u32], tx: u32, ty: u32) -> (Vec<f32>, u64, u64) {
     let (scene, opts, view, shadows, segs) = (ctx.scene, ctx.opts, ctx.view, ctx.shadows, ctx.segs);
-    let mut out = vec![0.0f32; (TILE * TILE * 3) as usize];
-    let mut frags = 0u64;
-    let mut bad = 0u64;
-    let mut sorted: Vec<Fragment> = Vec::new();
-    for j in 0..TILE {
-        let y = ty * TILE + j;
-        if y >= view.height {
-            break;
-        }
-        for i in 0..TILE {
-            let x = tx * TILE + i;
-            if x >= view.width {
-                break;
-            }
-            let p = [x as f32 + 0.5, y as f32 + 0.5];
-            // Opaque surface (nearest sphere) or background.
+    let n = (TILE * TILE) as usize;
+    let (x0, y0) = (tx * TILE, ty * TILE);
+    let (tw, th) = (TILE.min(view.width - x0), TILE.min(view.height - y0));
+
+    // Opaque surface (nearest sphere) or background, per pixel.
+    let mut opaque_depth = vec![f32::INFINITY; n];
+    let mut base = vec![Vec3::ZERO; n];
+    for j in 0..th {
+        for i in 0..tw {
+            let k = (j * TILE + i) as usize;
+            let p = [(x0 + i) as f32 + 0.5, (y0 + j) as f32 + 0.5];
             let ray = view.ray(p[0], p[1]);
-            let mut opaque_depth = f32::INFINITY;
             // Background: the environment seen along the ray (clamped SH), else the constant.
-            let mut base = match &scene.environment {
+            base[k] = match &scene.environment {
                 Some(env) => Vec3::from(sh9_eval(&env.sh, &ray.to_array())).max(Vec3::ZERO),
                 None => opts.background,
             };
             for s in &scene.spheres {
                 if let Some(t) = ray_sphere(view.eye, ray, s.center, s.radius) {
                     let depth = t * ray.dot(view.forward);
-                    if depth < opaque_depth && depth > view.near {
-                        opaque_depth = depth;
+                    if depth < opaque_depth[k] && depth > view.near {
+                        opaque_depth[k] = depth;
                         let hit = view.eye + ray * t;
-                        base = shade_diffuse(
+                        base[k] = shade_diffuse(
                             scene,
                             shadows,
                             hit,
@@ -554,25 +548,46 @@ fn render_tile(ctx: &TileContext<'_>, bin: &[u32], tx: u32, ty: u32) -> (Vec<f32
                     }
                 }
             }
-            let mut mlab = match opts.transparency {
-                Transparency::Mlab(k) => Some(Mlab::new(k)),
-                Transparency::Sorted => None,
-            };
-            sorted.clear();
-            for &si in bin {
-                let s = &segs[si as usize];
+        }
+    }
+
+    // Fragments: each segment visits only the pixels of its bounding box, in
+    // scene order (so every pixel sees its fragments in a fixed order).
+    let mut mlab: Vec<Mlab> = match opts.transparency {
+        Transparency::Mlab(k) => (0..n).map(|_| Mlab::new(k)).collect(),
+        Transparency::Sorted => Vec::new(),
+    };
+    let mut lists: Vec<Vec<Fragment>> = match opts.transparency {
+        Transparency::Sorted => vec![Vec::new(); n],
+        Transparency::Mlab(_) => Vec::new(),
+    };
+    let mut frags = 0u64;
+    for &si in bin {
+        let s = &segs[si as usize];
+        let pad = 0.5 * s.wa.max(s.wb).max(1.0) + 1.0;
+        let bx0 = ((s.a[0].min(s.b[0]) - pad).floor() as i64 - x0 as i64).max(0) as u32;
+        let bx1 = ((s.a[0].max(s.b[0]) + pad).ceil() as i64 - x0 as i64).min(tw as i64 - 1);
+        let by0 = ((s.a[1].min(s.b[1]) - pad).floor() as i64 - y0 as i64).max(0) as u32;
+        let by1 = ((s.a[1].max(s.b[1]) + pad).ceil() as i64 - y0 as i64).min(th as i64 - 1);
+        if bx1 < 0 || by1 < 0 {
+            continue;
+        }
+        let tangent = (s.pb - s.pa).normalize_or_zero();
+        for j in by0..=by1 as u32 {
+            for i in bx0..=bx1 as u32 {
+                let k = (j * TILE + i) as usize;
+                let p = [(x0 + i) as f32 + 0.5, (y0 + j) as f32 + 0.5];
                 let Some((cov, t)) = coverage(s, p) else {
                     continue;
                 };
                 // Perspective-correct depth and world position.
                 let inv = (1.0 - t) / s.za + t / s.zb;
                 let depth = 1.0 / inv;
-                if !(depth > view.near && depth < opaque_depth) {
+                if !(depth > view.near && depth < opaque_depth[k]) {
                     continue;
                 }
-                let tw = (t / s.zb) / inv;
-                let pw = s.pa + (s.pb - s.pa) * tw;
-                let tangent = (s.pb - s.pa).normalize_or_zero();
+                let tw_ = (t / s.zb) / inv;
+                let pw = s.pa + (s.pb - s.pa) * tw_;
                 let v = (view.eye - pw).normalize_or_zero();
                 let c = shade_hair(scene, ctx.env_model, shadows, pw, tangent, v);
                 let frag = Fragment {
@@ -581,18 +596,25 @@ fn render_tile(ctx: &TileContext<'_>, bin: &[u32], tx: u32, ty: u32) -> (Vec<f32
                     transmittance: 1.0 - cov,
                 };
                 frags += 1;
-                match &mut mlab {
-                    Some(m) => m.insert(frag),
-                    None => sorted.push(frag),
+                match opts.transparency {
+                    Transparency::Mlab(_) => mlab[k].insert(frag),
+                    Transparency::Sorted => lists[k].push(frag),
                 }
             }
-            let col = match &mlab {
-                Some(m) => m.resolve(base),
-                None => oit::resolve_sorted(&mut sorted, base),
+        }
+    }
+
+    let mut out = vec![0.0f32; n * 3];
+    let mut bad = 0u64;
+    for j in 0..th {
+        for i in 0..tw {
+            let k = (j * TILE + i) as usize;
+            let col = match opts.transparency {
+                Transparency::Mlab(_) => mlab[k].resolve(base[k]),
+                Transparency::Sorted => oit::resolve_sorted(&mut lists[k], base[k]),
             };
-            let o = ((j * TILE + i) * 3) as usize;
             if col.is_finite() {
-                out[o..o + 3].copy_from_slice(&col.to_array());
+                out[3 * k..3 * k + 3].copy_from_slice(&col.to_array());
             } else {
                 bad += 1;
             }
