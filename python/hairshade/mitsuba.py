@@ -114,17 +114,24 @@ class MitsubaHair:
     def _vectorized(self) -> bool:
         return not self.variant.startswith("scalar")
 
+    def _pairs(self, wi: object, wo: object) -> tuple[np.ndarray, np.ndarray, int]:
+        """Activates the variant; unit (N,3) arrays of both directions, N."""
+        self._activate()
+        a, b = np.broadcast_arrays(_unit_rows(wi, "wi"), _unit_rows(wo, "wo"))
+        return a, b, a.shape[0]
+
+    @staticmethod
+    def _wide_si(a: np.ndarray) -> Any:
+        si = dr.zeros(mi.SurfaceInteraction3f, a.shape[0])
+        si.wi = mi.Vector3f(a[:, 0], a[:, 1], a[:, 2])
+        return si
+
     def eval_pdf(self, wi: object, wo: object) -> tuple[np.ndarray, np.ndarray]:
         """(value (N,3), pdf (N,)) from Mitsuba's ``eval_pdf``."""
-        self._activate()
-        a, b = _unit_rows(wi, "wi"), _unit_rows(wo, "wo")
-        a, b = np.broadcast_arrays(a, b)
-        n = a.shape[0]
+        a, b, n = self._pairs(wi, wo)
         ctx = mi.BSDFContext()
         if self._vectorized:
-            si = dr.zeros(mi.SurfaceInteraction3f, n)
-            si.wi = mi.Vector3f(a[:, 0], a[:, 1], a[:, 2])
-            v, p = self._bsdf.eval_pdf(ctx, si, mi.Vector3f(b[:, 0], b[:, 1], b[:, 2]))
+            v, p = self._bsdf.eval_pdf(ctx, self._wide_si(a), mi.Vector3f(b[:, 0], b[:, 1], b[:, 2]))
             return np.array(v, dtype=np.float64).T.reshape(n, 3), np.array(p, dtype=np.float64).reshape(n)
         si = mi.SurfaceInteraction3f()
         val = np.empty((n, 3))
@@ -138,15 +145,9 @@ class MitsubaHair:
 
     def eval(self, wi: object, wo: object) -> np.ndarray:
         """Mitsuba's ``eval`` (N,3)."""
-        self._activate()
-        a, b = _unit_rows(wi, "wi"), _unit_rows(wo, "wo")
-        a, b = np.broadcast_arrays(a, b)
-        n = a.shape[0]
-        ctx = mi.BSDFContext()
+        a, b, n = self._pairs(wi, wo)
         if self._vectorized:
-            si = dr.zeros(mi.SurfaceInteraction3f, n)
-            si.wi = mi.Vector3f(a[:, 0], a[:, 1], a[:, 2])
-            v = self._bsdf.eval(ctx, si, mi.Vector3f(b[:, 0], b[:, 1], b[:, 2]))
+            v = self._bsdf.eval(mi.BSDFContext(), self._wide_si(a), mi.Vector3f(b[:, 0], b[:, 1], b[:, 2]))
             return np.array(v, dtype=np.float64).T.reshape(n, 3)
         return self.eval_pdf(a, b)[0]
 
@@ -159,9 +160,7 @@ class MitsubaHair:
         a = np.broadcast_to(_unit_rows(wi, "wi"), (n, 3))
         ctx = mi.BSDFContext()
         if self._vectorized:
-            si = dr.zeros(mi.SurfaceInteraction3f, n)
-            si.wi = mi.Vector3f(a[:, 0], a[:, 1], a[:, 2])
-            bs, w = self._bsdf.sample(ctx, si, mi.Float(u1), mi.Point2f(u2[:, 0], u2[:, 1]))
+            bs, w = self._bsdf.sample(ctx, self._wide_si(a), mi.Float(u1), mi.Point2f(u2[:, 0], u2[:, 1]))
             wo = np.array(bs.wo, dtype=np.float64).T.reshape(n, 3)
             return wo, np.array(w, dtype=np.float64).T.reshape(n, 3), np.array(bs.pdf, dtype=np.float64).reshape(n)
         si = mi.SurfaceInteraction3f()

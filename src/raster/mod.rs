@@ -29,7 +29,7 @@ use crate::lighting::sh9_eval;
 use glam::Vec3;
 use oit::{Fragment, Mlab};
 use rayon::prelude::*;
-use scene::{HairShading, Light, RenderOptions, Scene, Transparency};
+use scene::{HairShading, RenderOptions, Scene, Transparency};
 use shadow::ShadowMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -256,22 +256,7 @@ fn shade_hair(
 ) -> Vec3 {
     let mut out = Vec3::ZERO;
     for (light, sm) in scene.lights.iter().zip(shadows) {
-        let (l, e) = match *light {
-            Light::Directional {
-                direction,
-                intensity,
-                ..
-            } => (direction, intensity),
-            Light::Point {
-                position,
-                intensity,
-                ..
-            } => {
-                let d = position - p;
-                let r2 = d.length_squared().max(1e-12);
-                (d / r2.sqrt(), intensity / r2)
-            }
-        };
+        let (l, e) = light.incident(p);
         let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
         if vis <= 0.0 {
             continue;
@@ -336,22 +321,7 @@ fn shade_diffuse(
 ) -> Vec3 {
     let mut e_total = Vec3::ZERO;
     for (light, sm) in scene.lights.iter().zip(shadows) {
-        let (l, e) = match *light {
-            Light::Directional {
-                direction,
-                intensity,
-                ..
-            } => (direction, intensity),
-            Light::Point {
-                position,
-                intensity,
-                ..
-            } => {
-                let d = position - p;
-                let r2 = d.length_squared().max(1e-12);
-                (d / r2.sqrt(), intensity / r2)
-            }
-        };
+        let (l, e) = light.incident(p);
         let c = n.dot(l);
         if c <= 0.0 {
             continue;

@@ -37,6 +37,29 @@ pub enum Light {
     },
 }
 
+impl Light {
+    /// `(unit direction towards the light, irradiance)` at point `p`.
+    #[inline]
+    pub fn incident(&self, p: Vec3) -> (Vec3, Vec3) {
+        match *self {
+            Light::Directional {
+                direction,
+                intensity,
+                ..
+            } => (direction, intensity),
+            Light::Point {
+                position,
+                intensity,
+                ..
+            } => {
+                let d = position - p;
+                let r2 = d.length_squared().max(1e-12);
+                (d / r2.sqrt(), intensity / r2)
+            }
+        }
+    }
+}
+
 /// Band-2 SH environment radiance (9 RGB coefficients).
 #[derive(Debug, Clone)]
 pub struct Environment {
