@@ -176,11 +176,83 @@ class MitsubaHair:
         return wo, weight, pdf
 
 
+# -- hairshade's models as Mitsuba BSDFs -------------------------------------------
+
+_REGISTERED = False
+
+
+def register_plugins() -> None:
+    """Registers ``hairshade_karis`` and ``hairshade_deon``: KarisHair and
+    DEonHair as Mitsuba BSDFs, so Mitsuba can render the exact shading the
+    rasterizer uses. They take a ``params`` string (JSON of the model's
+    keyword arguments), read the fiber tangent as local y (as Mitsuba's
+    ``hair`` does: use them on ``bsplinecurve``), evaluate
+    ``S(L = wo, V = wi, T)`` through hairshade on numpy arrays, and sample
+    directions uniformly on the sphere. They need a JIT variant
+    (``llvm_ad_rgb``) rendered in wavefront mode; :func:`render` sets that up.
+    Both models are far-field: the value does not depend on where the ray
+    hits the fiber."""
+    global _REGISTERED
+    if _REGISTERED:
+        return
+    import json
+
+    from .deon import DEonHair
+    from .karis import KarisHair
+
+    def make(model_cls: type) -> Any:
+        class HairshadeBSDF(mi.BSDF):
+            def __init__(self, props: Any) -> None:
+                mi.BSDF.__init__(self, props)
+                kwargs = json.loads(props.get("params", "{}"))
+                self.model = model_cls(**kwargs)
+                flags = (mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.GlossyTransmission
+                         | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide)
+                self.m_components = [flags]
+                self.m_flags = flags
+
+            def _eval(self, si: Any, wo: Any) -> Any:
+                v = np.array(si.wi, dtype=np.float64).T.reshape(-1, 3)
+                l = np.array(wo, dtype=np.float64).T.reshape(-1, 3)
+                n = max(len(v), len(l))
+                f = self.model.eval(np.broadcast_to(l, (n, 3)), np.broadcast_to(v, (n, 3)), np.array([0.0, 1.0, 0.0]))
+                return mi.Color3f(f[:, 0], f[:, 1], f[:, 2])
+
+            def sample(self, ctx: Any, si: Any, sample1: Any, sample2: Any, active: Any = True) -> Any:
+                bs = mi.BSDFSample3f()
+                bs.wo = mi.warp.square_to_uniform_sphere(sample2)
+                bs.pdf = mi.warp.square_to_uniform_sphere_pdf(bs.wo)
+                bs.eta = 1.0
+                bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
+                bs.sampled_component = mi.UInt32(0)
+                return bs, self._eval(si, bs.wo) / bs.pdf
+
+            def eval(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
+                return self._eval(si, wo)
+
+            def pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
+                return mi.warp.square_to_uniform_sphere_pdf(wo)
+
+            def eval_pdf(self, ctx: Any, si: Any, wo: Any, active: Any = True) -> Any:
+                return self._eval(si, wo), mi.warp.square_to_uniform_sphere_pdf(wo)
+
+            def to_string(self) -> str:
+                return f"{model_cls.__name__}BSDF[{self.model!r}]"
+
+        return HairshadeBSDF
+
+    for name, cls in (("hairshade_karis", KarisHair), ("hairshade_deon", DEonHair)):
+        plugin = make(cls)
+        mi.register_bsdf(name, lambda props, plugin=plugin: plugin(props))
+    _REGISTERED = True
+
+
 # -- whole scenes ----------------------------------------------------------------
 
 
 def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "direct", max_depth: int = 64,
-               width: int | None = None, height: int | None = None, hair_params: dict[str, Any] | None = None) -> dict[str, Any]:
+               width: int | None = None, height: int | None = None, hair_params: dict[str, Any] | None = None,
+               hair_bsdf: str = "chiang") -> dict[str, Any]:
     """The Mitsuba scene dictionary of a hairshade scene. Strands become a
     ``bsplinecurve`` (written to ``strand_file``; its frame has the tangent
     on local y as the ``hair`` BSDF requires, which ``linearcurve``'s does
@@ -212,12 +284,25 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
     if integrator not in ("direct", "path"):
         raise ValueError(f"integrator: must be 'direct' or 'path', got {integrator!r}")
     if scene.strand_count > 0:
-        if hair_params is None:
+        if hair_params is None and hair_bsdf == "chiang":
             hair_params = scene.hair.params if isinstance(scene.hair, ChiangHair) else chiang_params(scene.hair)
             hair_params = {k: v for k, v in hair_params.items() if k != "i0"}
         pts, rad, off = _clamped_controls(scene.points, scene.radii, scene.offsets)
         write_strand_file(strand_file, pts, rad, off)
-        d["hair"] = {"type": "bsplinecurve", "filename": strand_file, "bsdf": hair_dict(ChiangHair(**hair_params))}
+        if hair_bsdf == "chiang":
+            bsdf = hair_dict(ChiangHair(**hair_params))
+        elif hair_bsdf == "karis":
+            import json
+
+            from .karis import KarisHair
+
+            if not isinstance(scene.hair, KarisHair):
+                raise ValueError("hair_bsdf: 'karis' needs a scene whose material is KarisHair")
+            register_plugins()
+            bsdf = {"type": "hairshade_karis", "params": json.dumps(scene.hair.params)}
+        else:
+            raise ValueError(f"hair_bsdf: must be 'chiang' or 'karis', got {hair_bsdf!r}")
+        d["hair"] = {"type": "bsplinecurve", "filename": strand_file, "bsdf": bsdf}
     for i, s in enumerate(scene.spheres):
         d[f"sphere_{i}"] = {
             "type": "sphere", "center": s["center"], "radius": s["radius"],
@@ -252,9 +337,12 @@ def _clamped_controls(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray
 
 def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth: int = 64, width: int | None = None,
            height: int | None = None, variant: str | None = None, passes: int | None = None, seed: int = 0,
-           progress: bool | None = None, hair_params: dict[str, Any] | None = None) -> np.ndarray:
+           progress: bool | None = None, hair_params: dict[str, Any] | None = None, hair_bsdf: str = "chiang") -> np.ndarray:
     """Reference render of ``scene`` by Mitsuba 3 -> (H, W, 3) float32.
 
+    ``hair_bsdf``: "chiang" (Mitsuba's ``hair`` with the scene's ChiangHair,
+    or the one fitted to its KarisHair) or "karis" (the scene's KarisHair
+    itself through the ``hairshade_karis`` plugin; needs ``llvm_ad_rgb``).
     The samples are split into ``passes`` renders with different seeds
     (default: 8, or spp if fewer) so that a progress bar can be shown;
     Ctrl-C stops between passes."""
@@ -265,7 +353,13 @@ def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth:
     if spp < 1:
         raise ValueError(f"spp: must be >= 1, got {spp}")
     v = variant or default_variant()
+    if hair_bsdf == "karis" and v.startswith("scalar"):
+        raise ValueError("hair_bsdf: 'karis' needs a JIT variant (llvm_ad_rgb); install libllvm19")
     mi.set_variant(v)
+    if hair_bsdf == "karis":
+        # Python BSDFs are evaluated on concrete arrays: wavefront mode.
+        dr.set_flag(dr.JitFlag.VCallRecord, False)
+        dr.set_flag(dr.JitFlag.LoopRecord, False)
     passes = max(1, min(passes or 8, spp))
     show = sys.stderr.isatty() if progress is None else progress
     with tempfile.TemporaryDirectory() as tmp:
@@ -273,7 +367,7 @@ def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth:
         acc = None
         start = time.perf_counter()
         for k, n in enumerate(per):
-            d = scene_dict(scene, f"{tmp}/strands.txt", n, integrator, max_depth, width, height, hair_params)
+            d = scene_dict(scene, f"{tmp}/strands.txt", n, integrator, max_depth, width, height, hair_params, hair_bsdf)
             mscene = mi.load_dict(d)
             img = np.array(mi.render(mscene, spp=n, seed=seed * 1000 + k), dtype=np.float64) * n
             acc = img if acc is None else acc + img

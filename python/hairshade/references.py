@@ -46,3 +46,27 @@ def comparison_scene(name: str, examples_dir: str | None = None) -> Scene:
 
 def reference_path(name: str, data_dir: str) -> str:
     return os.path.join(data_dir, f"{name}_mitsuba_direct.exr")
+
+
+# Scenes compared with KarisHair on both sides (the rasterizer's shading and
+# Mitsuba's `hairshade_karis` plugin), direct light with shadows. MS is off:
+# its Kajiya-Kay tint reads the rasterizer's shadow-map value, which Mitsuba's
+# BSDF has no access to.
+KARIS_CASES = {
+    "single_strand": dict(width=320, height=180, spp=1024),
+    "backlit_bundle": dict(width=320, height=180, spp=1024),
+}
+KARIS_MATERIAL = {"model": "karis", "base_color": [0.55, 0.4, 0.25], "roughness": 0.4, "components": ["R", "TT", "TRT"]}
+
+
+def karis_scene(name: str, examples_dir: str | None = None) -> Scene:
+    path = os.path.join(examples_dir or EXAMPLES, f"{name}.json")
+    with open(path) as f:
+        d: dict[str, Any] = json.load(f)
+    d["hair"]["material"] = dict(KARIS_MATERIAL)
+    d["lights"] = [l for l in d["lights"] if l["type"] != "environment"]
+    return Scene.from_dict(d, base_dir=os.path.dirname(os.path.abspath(path)), source=path)
+
+
+def karis_reference_path(name: str, data_dir: str) -> str:
+    return os.path.join(data_dir, f"{name}_mitsuba_karis.exr")
