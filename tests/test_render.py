@@ -211,3 +211,30 @@ def test_08_strand_file_and_zero_width(tmp_path):
     (tmp_path / "scene.json").write_text(json.dumps(d))
     with pytest.raises(hs.SceneError, match=r"bad.txt:2: expected 4 finite numbers"):
         hs.Scene.load(tmp_path / "scene.json")
+
+
+def test_09_mitsuba_plugins_evaluate_hairshade_models():
+    """hairshade_karis / hairshade_deon, loaded and evaluated by Mitsuba,
+    return the models' values with L = wo, V = wi, T = local y."""
+    import json as _json
+
+    from hairshade import mitsuba as hm
+
+    if hm.default_variant().startswith("scalar"):
+        pytest.skip("Mitsuba's llvm_ad_rgb variant is unavailable (no libLLVM >= 16)")
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant("llvm_ad_rgb")
+    hm.register_plugins()
+    rng = np.random.default_rng(3)
+    wi, wo = rng.normal(size=(2, 64, 3))
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    for name, model in (("hairshade_karis", hs.KarisHair(base_color=[0.5, 0.3, 0.2], roughness=0.45)),
+                        ("hairshade_deon", hs.DEonHair(base_color=[0.5, 0.3, 0.2], roughness=0.45))):
+        bsdf = mi.load_dict({"type": name, "params": _json.dumps(model.params)})
+        si = dr.zeros(mi.SurfaceInteraction3f, 64)
+        si.wi = mi.Vector3f(wi[:, 0], wi[:, 1], wi[:, 2])
+        v = np.array(bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(wo[:, 0], wo[:, 1], wo[:, 2]))).T
+        np.testing.assert_allclose(v, model.eval(wo, wi, [0.0, 1.0, 0.0]), rtol=1e-5, atol=1e-7)

@@ -356,10 +356,28 @@ def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth:
     if hair_bsdf == "karis" and v.startswith("scalar"):
         raise ValueError("hair_bsdf: 'karis' needs a JIT variant (llvm_ad_rgb); install libllvm19")
     mi.set_variant(v)
+    flags = None
     if hair_bsdf == "karis":
-        # Python BSDFs are evaluated on concrete arrays: wavefront mode.
+        # Python BSDFs are evaluated on concrete arrays: wavefront mode
+        # (restored afterwards).
+        flags = (dr.flag(dr.JitFlag.VCallRecord), dr.flag(dr.JitFlag.LoopRecord))
         dr.set_flag(dr.JitFlag.VCallRecord, False)
         dr.set_flag(dr.JitFlag.LoopRecord, False)
+    try:
+        return _render_passes(scene, spp, integrator, max_depth, width, height, passes, seed, progress, hair_params, hair_bsdf)
+    finally:
+        if flags is not None:
+            dr.set_flag(dr.JitFlag.VCallRecord, flags[0])
+            dr.set_flag(dr.JitFlag.LoopRecord, flags[1])
+
+
+def _render_passes(scene: "Scene", spp: int, integrator: str, max_depth: int, width: int | None, height: int | None,
+                   passes: int | None, seed: int, progress: bool | None, hair_params: dict[str, Any] | None,
+                   hair_bsdf: str) -> np.ndarray:
+    import sys
+    import tempfile
+    import time
+
     passes = max(1, min(passes or 8, spp))
     show = sys.stderr.isatty() if progress is None else progress
     with tempfile.TemporaryDirectory() as tmp:
