@@ -44,6 +44,51 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<f32>), ImageError> {
     Ok((size.width(), size.height(), px))
 }
 
+/// Reads a PNG as row-major RGBA f32 in [0, 1] (8- or 16-bit, any color
+/// type; gray and RGB get alpha 1).
+pub fn read_png(path: &Path) -> Result<(usize, usize, Vec<f32>), ImageError> {
+    let err =
+        |e: &dyn std::fmt::Display| ImageError(format!("{}: cannot read PNG: {e}", path.display()));
+    let file = std::fs::File::open(path).map_err(|e| err(&e))?;
+    let mut dec = png::Decoder::new(std::io::BufReader::new(file));
+    dec.set_transformations(png::Transformations::EXPAND);
+    let mut reader = dec.read_info().map_err(|e| err(&e))?;
+    let mut buf = vec![
+        0u8;
+        reader
+            .output_buffer_size()
+            .ok_or_else(|| err(&"image too large"))?
+    ];
+    let info = reader.next_frame(&mut buf).map_err(|e| err(&e))?;
+    let (w, h) = (info.width as usize, info.height as usize);
+    let channels = info.color_type.samples();
+    let sixteen = info.bit_depth == png::BitDepth::Sixteen;
+    let sample = |i: usize| -> f32 {
+        if sixteen {
+            u16::from_be_bytes([buf[2 * i], buf[2 * i + 1]]) as f32 / 65535.0
+        } else {
+            buf[i] as f32 / 255.0
+        }
+    };
+    let mut out = vec![0.0f32; w * h * 4];
+    for p in 0..w * h {
+        let base = p * channels;
+        let (r, g, b, a) = match channels {
+            1 => (sample(base), sample(base), sample(base), 1.0),
+            2 => (sample(base), sample(base), sample(base), sample(base + 1)),
+            3 => (sample(base), sample(base + 1), sample(base + 2), 1.0),
+            _ => (
+                sample(base),
+                sample(base + 1),
+                sample(base + 2),
+                sample(base + 3),
+            ),
+        };
+        out[4 * p..4 * p + 4].copy_from_slice(&[r, g, b, a]);
+    }
+    Ok((w, h, out))
+}
+
 /// sRGB encoding of a linear value in [0, 1].
 #[inline]
 pub fn srgb_encode(x: f32) -> f32 {

@@ -71,6 +71,11 @@ def render(
             r["pcf_radius"],
             r["background"],
             bar if show else None,
+            None if scene.cards is None else (
+                scene.cards["corners"].reshape(-1), scene.cards["uvs"].reshape(-1), scene.cards["tangents"].reshape(-1),
+                scene.cards["texture"],
+                [(t.shape[1], t.shape[0], t.reshape(-1).tolist()) for t in scene.cards["textures"]],
+            ),
         )
     finally:
         if show:

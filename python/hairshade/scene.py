@@ -31,6 +31,10 @@ A scene file::
   line, a blank line between strands, ``#`` comments; relative to the scene
   file) and ``generate`` (procedural: ``head``, ``bundle``, see
   :mod:`hairshade.generate`). Radius 0 is allowed and draws nothing.
+- Hair cards: ``cards`` (ribbons with an alpha texture, see
+  :mod:`hairshade.cards`) and ``generate_cards`` (cards around a procedural
+  head). A card triangle with a corner behind the camera's near plane is not
+  drawn.
 - ``material.model`` is ``karis`` (KarisHair keyword arguments) or
   ``chiang`` (ChiangHair keyword arguments; shaded with its far field).
 - ``render.background`` is the radiance behind everything when the scene
@@ -76,6 +80,7 @@ class Scene:
     render: dict[str, Any]
     source: str = "<dict>"
     hair: KarisHair | ChiangHair = field(init=False)
+    cards: dict[str, Any] | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         m = dict(self.material)
@@ -214,7 +219,7 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
             c.fail(f"{p}.type", f"expected 'directional', 'point' or 'environment', got {kind!r}")
 
     hair = c.obj(d.get("hair", {}), "hair")
-    c.known(hair, "hair", {"strands", "file", "generate", "material"})
+    c.known(hair, "hair", {"strands", "file", "generate", "cards", "generate_cards", "material"})
     pts: list[np.ndarray] = []
     rads: list[np.ndarray] = []
     for i, s in enumerate(hair.get("strands", [])):
@@ -255,6 +260,8 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
     points = np.concatenate(pts).astype(np.float32) if pts else np.zeros((0, 3), np.float32)
     radii = np.concatenate(rads).astype(np.float32) if rads else np.zeros(0, np.float32)
 
+    cards = _parse_cards(hair, base_dir, c)
+
     mat = dict(c.obj(hair.get("material", {"model": "karis"}), "hair.material"))
     model = mat.get("model", "karis")
     if model not in ("karis", "chiang"):
@@ -290,7 +297,64 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
         pcf_radius=int(c.num(r.get("pcf_radius", 1), "render.pcf_radius", 0, 8)),
         background=c.vec3(r.get("background", [0, 0, 0]), "render.background", 0),
     )
-    return Scene(camera, lights, env, points, radii, offsets, spheres, mat, render, source)
+    scene = Scene(camera, lights, env, points, radii, offsets, spheres, mat, render, source)
+    scene.cards = cards
+    return scene
+
+
+def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any] | None:
+    """Cards as flat arrays for the renderer, or None."""
+    from .cards import card_quads, head_cards, load_alpha
+
+    raw = hair.get("cards", [])
+    if not isinstance(raw, list):
+        c.fail("hair.cards", "expected a list")
+    entries = [(f"hair.cards[{i}]", x) for i, x in enumerate(raw)]
+    if "generate_cards" in hair:
+        try:
+            gen = head_cards(c.obj(hair["generate_cards"], "hair.generate_cards"))
+        except (TypeError, ValueError) as e:
+            c.fail("hair.generate_cards", str(e))
+        entries += [(f"hair.generate_cards (card {i})", x) for i, x in enumerate(gen)]
+    if not entries:
+        return None
+    corners, uvs, tangents, tex_index = [], [], [], []
+    textures: list[np.ndarray] = []
+    tex_keys: dict[str, int] = {}
+    for path, card in entries:
+        card = c.obj(card, path)
+        c.known(card, path, {"points", "width", "normal", "alpha"})
+        raw_pts = card.get("points")
+        if not isinstance(raw_pts, list) or len(raw_pts) < 2:
+            c.fail(f"{path}.points", "expected a list of at least 2 points")
+        pts = np.array([c.vec3(x, f"{path}.points[{k}]") for k, x in enumerate(raw_pts)])
+        width = c.num(card.get("width"), f"{path}.width", 0, lo_open=True)
+        normal = np.array(c.vec3(card.get("normal", [0, 0, 1]), f"{path}.normal"))
+        if np.linalg.norm(normal) == 0:
+            c.fail(f"{path}.normal", "must not be zero")
+        alpha_spec = c.obj(card.get("alpha", {"bake": {}}), f"{path}.alpha")
+        key = json.dumps(alpha_spec, sort_keys=True)
+        if key not in tex_keys:
+            try:
+                textures.append(load_alpha(alpha_spec, base_dir))
+            except (TypeError, ValueError, OSError) as e:
+                c.fail(f"{path}.alpha", str(e))
+            tex_keys[key] = len(textures) - 1
+        try:
+            q, uv, t = card_quads(pts, width, normal / np.linalg.norm(normal))
+        except ValueError as e:
+            c.fail(path, str(e))
+        corners.append(q)
+        uvs.append(uv)
+        tangents.append(t)
+        tex_index.append(np.full(len(t), tex_keys[key], dtype=np.uint32))
+    return dict(
+        corners=np.concatenate(corners).astype(np.float32),
+        uvs=np.concatenate(uvs).astype(np.float32),
+        tangents=np.concatenate(tangents).astype(np.float32),
+        texture=np.concatenate(tex_index),
+        textures=textures,
+    )
 
 
 def _read_strand_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:

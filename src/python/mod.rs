@@ -766,13 +766,70 @@ fn lobe<'py>(
 type CameraArgs = ([f32; 3], [f32; 3], [f32; 3], f32, u32, u32);
 type LightArgs = (String, [f32; 3], [f32; 3], bool);
 type SphereArgs = ([f32; 3], f32, [f32; 3]);
+/// (corners Q*4*3, uvs Q*4*2, tangents Q*3, texture index per quad, textures (w, h, alpha)).
+type CardArgs<'py> = (
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, u32>,
+    Vec<(u32, u32, Vec<f32>)>,
+);
+
+fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<crate::raster::scene::Cards> {
+    use crate::raster::scene::{AlphaTexture, Cards};
+    use glam::Vec3;
+    let Some((corners, uvs, tangents, texture, textures)) = cards else {
+        return Ok(Cards::default());
+    };
+    let (c, u, t, ti) = (
+        slice(&corners, "cards")?,
+        slice(&uvs, "cards")?,
+        slice(&tangents, "cards")?,
+        slice(&texture, "cards")?,
+    );
+    let q = ti.len();
+    if c.len() != 12 * q || u.len() != 8 * q || t.len() != 3 * q {
+        return Err(PyValueError::new_err(format!(
+            "cards: inconsistent array lengths for {q} quads"
+        )));
+    }
+    let mut tex = Vec::with_capacity(textures.len());
+    for (k, (w, h, a)) in textures.into_iter().enumerate() {
+        if w == 0 || h == 0 || a.len() != (w * h) as usize || a.iter().any(|x| !x.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "cards: texture {k} must hold {w}x{h} finite values"
+            )));
+        }
+        tex.push(AlphaTexture {
+            width: w,
+            height: h,
+            alpha: a,
+        });
+    }
+    if ti.iter().any(|&i| i as usize >= tex.len()) {
+        return Err(PyValueError::new_err("cards: texture index out of range"));
+    }
+    Ok(Cards {
+        corners: c
+            .chunks_exact(3)
+            .map(|x| Vec3::new(x[0], x[1], x[2]))
+            .collect(),
+        uvs: u.chunks_exact(2).map(|x| [x[0], x[1]]).collect(),
+        tangents: t
+            .chunks_exact(3)
+            .map(|x| Vec3::new(x[0], x[1], x[2]))
+            .collect(),
+        texture: ti.to_vec(),
+        textures: tex,
+    })
+}
 
 /// Renders a strand scene (flat-array interface; see `hairshade.render`).
 /// Returns (image as a flat float32 array, stats dict). `progress`, when
 /// given, is called with (tiles done, tiles total) about 10 times a second;
 /// Ctrl-C stops the render and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None))]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -791,6 +848,7 @@ fn render<'py>(
     pcf_radius: i32,
     background: [f32; 3],
     progress: Option<Bound<'py, PyAny>>,
+    cards: Option<CardArgs<'py>>,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     use crate::raster::scene::*;
     use glam::Vec3;
@@ -892,6 +950,7 @@ fn render<'py>(
             radii: rad.to_vec(),
             offsets: off.to_vec(),
         },
+        cards: build_cards(cards)?,
         spheres: spheres
             .into_iter()
             .map(|(c, r, a)| Sphere {
@@ -981,6 +1040,17 @@ fn read_exr(
     Ok((w, h, PyArray1::from_vec(py, d)))
 }
 
+/// Reads a PNG: (width, height, flat RGBA float32 array in [0, 1]).
+#[pyfunction]
+fn read_png(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+) -> PyResult<(usize, usize, Bound<'_, PyArray1<f32>>)> {
+    let (w, h, d) = without_gil(py, || crate::image_io::read_png(&path))
+        .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.0))?;
+    Ok((w, h, PyArray1::from_vec(py, d)))
+}
+
 /// Writes an sRGB PNG preview of a flat (H*W*3) linear float32 image.
 #[pyfunction]
 fn write_png(
@@ -1055,6 +1125,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(write_exr, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(write_png, m)?)?;
+    m.add_function(wrap_pyfunction!(read_png, m)?)?;
     m.add_function(wrap_pyfunction!(i0e, m)?)?;
     m.add_function(wrap_pyfunction!(log_i0, m)?)?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;

@@ -134,6 +134,10 @@ fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
         lo = lo.min(*p - Vec3::splat(*r));
         hi = hi.max(*p + Vec3::splat(*r));
     }
+    for c in &scene.cards.corners {
+        lo = lo.min(*c);
+        hi = hi.max(*c);
+    }
     for s in &scene.spheres {
         lo = lo.min(s.center - Vec3::splat(s.radius));
         hi = hi.max(s.center + Vec3::splat(s.radius));
@@ -187,6 +191,71 @@ fn build_segments(scene: &Scene, view: &View) -> Vec<Segment> {
         }
     }
     out
+}
+
+/// A projected card triangle.
+#[derive(Debug, Clone, Copy)]
+struct CardTri {
+    p: [[f32; 2]; 3],
+    z: [f32; 3],
+    uv: [[f32; 2]; 3],
+    world: [Vec3; 3],
+    tangent: Vec3,
+    tex: u32,
+}
+
+/// Card quads as triangles; a triangle with a corner behind the near plane
+/// is dropped (cards are not clipped).
+fn build_card_tris(scene: &Scene, view: &View) -> Vec<CardTri> {
+    let c = &scene.cards;
+    let mut out = Vec::with_capacity(2 * c.quad_count());
+    for q in 0..c.quad_count() {
+        for tri in [[0, 1, 2], [0, 2, 3]] {
+            let idx = tri.map(|k| 4 * q + k);
+            let v = idx.map(|i| view.to_view(c.corners[i]));
+            if v.iter().any(|x| !(x.z > view.near)) {
+                continue;
+            }
+            let p = v.map(|x| {
+                let (a, b) = view.project(x);
+                [a, b]
+            });
+            out.push(CardTri {
+                p,
+                z: v.map(|x| x.z),
+                uv: idx.map(|i| c.uvs[i]),
+                world: idx.map(|i| c.corners[i]),
+                tangent: c.tangents[q],
+                tex: c.texture[q],
+            });
+        }
+    }
+    out
+}
+
+fn tri_tile_range(t: &CardTri, tiles_x: u32, tiles_y: u32) -> Option<(u32, u32, u32, u32)> {
+    let xs = t.p.map(|p| p[0]);
+    let ys = t.p.map(|p| p[1]);
+    let (x0, x1) = (
+        xs.iter().cloned().fold(f32::INFINITY, f32::min),
+        xs.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+    );
+    let (y0, y1) = (
+        ys.iter().cloned().fold(f32::INFINITY, f32::min),
+        ys.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+    );
+    if !(x0.is_finite() && x1.is_finite() && y0.is_finite() && y1.is_finite()) {
+        return None;
+    }
+    let (w, h) = ((tiles_x * TILE) as f32, (tiles_y * TILE) as f32);
+    if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
+        return None;
+    }
+    let tx0 = (x0.max(0.0) as u32) / TILE;
+    let ty0 = (y0.max(0.0) as u32) / TILE;
+    let tx1 = (x1.min(w - 1.0) as u32) / TILE;
+    let ty1 = (y1.min(h - 1.0) as u32) / TILE;
+    Some((tx0, ty0, tx1.min(tiles_x - 1), ty1.min(tiles_y - 1)))
 }
 
 /// Screen-space bounding box in tiles, or None when off screen.
@@ -400,10 +469,23 @@ pub fn render_with_progress(
         }
     }
 
+    let tris = build_card_tris(scene, &view);
+    let mut tri_bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
+    for (i, t) in tris.iter().enumerate() {
+        if let Some((x0, y0, x1, y1)) = tri_tile_range(t, tiles_x, tiles_y) {
+            for ty in y0..=y1 {
+                for tx in x0..=x1 {
+                    tri_bins[(ty * tiles_x + tx) as usize].push(i as u32);
+                }
+            }
+        }
+    }
+
     let results: Vec<(Vec<f32>, u64, u64)> = pool().install(|| {
         bins.par_iter()
+            .zip(tri_bins.par_iter())
             .enumerate()
-            .map(|(ti, bin)| {
+            .map(|(ti, (bin, tri_bin))| {
                 if cancel.load(Ordering::Relaxed) {
                     return (Vec::new(), 0, 0);
                 }
@@ -414,8 +496,9 @@ pub fn render_with_progress(
                     shadows: &shadows,
                     env_model: env_model.as_ref(),
                     segs: &segs,
+                    tris: &tris,
                 };
-                let r = render_tile(&ctx, bin, ti as u32 % tiles_x, ti as u32 / tiles_x);
+                let r = render_tile(&ctx, bin, tri_bin, ti as u32 % tiles_x, ti as u32 / tiles_x);
                 done.fetch_add(1, Ordering::Relaxed);
                 r
             })
@@ -481,9 +564,16 @@ struct TileContext<'a> {
     shadows: &'a [Option<ShadowMap>],
     env_model: Option<&'a crate::fiber::karis::KarisHair<f32>>,
     segs: &'a [Segment],
+    tris: &'a [CardTri],
 }
 
-fn render_tile(ctx: &TileContext<'_>, bin: &[u32], tx: u32, ty: u32) -> (Vec<f32>, u64, u64) {
+fn render_tile(
+    ctx: &TileContext<'_>,
+    bin: &[u32],
+    tri_bin: &[u32],
+    tx: u32,
+    ty: u32,
+) -> (Vec<f32>, u64, u64) {
     let (scene, opts, view, shadows, segs) = (ctx.scene, ctx.opts, ctx.view, ctx.shadows, ctx.segs);
     let n = (TILE * TILE) as usize;
     let (x0, y0) = (tx * TILE, ty * TILE);
@@ -564,6 +654,65 @@ fn render_tile(ctx: &TileContext<'_>, bin: &[u32], tx: u32, ty: u32) -> (Vec<f32
                     depth,
                     color: c * cov,
                     transmittance: 1.0 - cov,
+                };
+                frags += 1;
+                match opts.transparency {
+                    Transparency::Mlab(_) => mlab[k].insert(frag),
+                    Transparency::Sorted => lists[k].push(frag),
+                }
+            }
+        }
+    }
+
+    // Card triangles: perspective-correct barycentrics, alpha from the texture.
+    for &ti in tri_bin {
+        let t = &ctx.tris[ti as usize];
+        let area = (t.p[1][0] - t.p[0][0]) * (t.p[2][1] - t.p[0][1])
+            - (t.p[2][0] - t.p[0][0]) * (t.p[1][1] - t.p[0][1]);
+        if area.abs() < 1e-12 || !area.is_finite() {
+            continue;
+        }
+        let xs = t.p.map(|p| p[0]);
+        let ys = t.p.map(|p| p[1]);
+        let bx0 = ((xs[0].min(xs[1]).min(xs[2])).floor() as i64 - x0 as i64).max(0);
+        let bx1 = ((xs[0].max(xs[1]).max(xs[2])).ceil() as i64 - x0 as i64).min(tw as i64 - 1);
+        let by0 = ((ys[0].min(ys[1]).min(ys[2])).floor() as i64 - y0 as i64).max(0);
+        let by1 = ((ys[0].max(ys[1]).max(ys[2])).ceil() as i64 - y0 as i64).min(th as i64 - 1);
+        let tex = &scene.cards.textures[t.tex as usize];
+        for j in by0..=by1 {
+            for i in bx0..=bx1 {
+                let k = (j as u32 * TILE + i as u32) as usize;
+                let p = [(x0 as i64 + i) as f32 + 0.5, (y0 as i64 + j) as f32 + 0.5];
+                let edge = |a: [f32; 2], b: [f32; 2]| {
+                    (b[0] - a[0]) * (p[1] - a[1]) - (p[0] - a[0]) * (b[1] - a[1])
+                };
+                let b = [
+                    edge(t.p[1], t.p[2]) / area,
+                    edge(t.p[2], t.p[0]) / area,
+                    edge(t.p[0], t.p[1]) / area,
+                ];
+                if b.iter().any(|x| *x < 0.0) {
+                    continue;
+                }
+                let w = [b[0] / t.z[0], b[1] / t.z[1], b[2] / t.z[2]];
+                let inv = w[0] + w[1] + w[2];
+                let depth = 1.0 / inv;
+                if !(depth > view.near && depth < opaque_depth[k]) {
+                    continue;
+                }
+                let u = (w[0] * t.uv[0][0] + w[1] * t.uv[1][0] + w[2] * t.uv[2][0]) * depth;
+                let v = (w[0] * t.uv[0][1] + w[1] * t.uv[1][1] + w[2] * t.uv[2][1]) * depth;
+                let alpha = tex.sample(u, v);
+                if !(alpha > 0.0) {
+                    continue;
+                }
+                let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
+                let view_dir = (view.eye - pw).normalize_or_zero();
+                let c = shade_hair(scene, ctx.env_model, shadows, pw, t.tangent, view_dir);
+                let frag = Fragment {
+                    depth,
+                    color: c * alpha,
+                    transmittance: 1.0 - alpha,
                 };
                 frags += 1;
                 match opts.transparency {

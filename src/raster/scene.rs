@@ -81,6 +81,51 @@ impl Strands {
     }
 }
 
+/// A grayscale alpha texture (row-major, v down the rows).
+#[derive(Debug, Clone)]
+pub struct AlphaTexture {
+    pub width: u32,
+    pub height: u32,
+    pub alpha: Vec<f32>,
+}
+
+impl AlphaTexture {
+    /// Bilinear sample at (u, v) in [0, 1]², clamped to the edge.
+    #[inline]
+    pub fn sample(&self, u: f32, v: f32) -> f32 {
+        let x = (u.clamp(0.0, 1.0) * self.width as f32 - 0.5).max(0.0);
+        let y = (v.clamp(0.0, 1.0) * self.height as f32 - 0.5).max(0.0);
+        let (x0, y0) = (x as u32, y as u32);
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        let at = |xi: u32, yi: u32| self.alpha[(yi * self.width + xi) as usize];
+        let top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
+        let bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// Hair cards: quads of ribbons along polylines, each with UVs (u across,
+/// v along the fibers), the fiber tangent, and an alpha texture.
+#[derive(Debug, Clone, Default)]
+pub struct Cards {
+    /// Corners, 4 per quad, in order around the quad.
+    pub corners: Vec<Vec3>,
+    /// UVs of the corners.
+    pub uvs: Vec<[f32; 2]>,
+    /// Fiber tangent of each quad.
+    pub tangents: Vec<Vec3>,
+    /// Alpha texture of each quad.
+    pub texture: Vec<u32>,
+    pub textures: Vec<AlphaTexture>,
+}
+
+impl Cards {
+    pub fn quad_count(&self) -> usize {
+        self.tangents.len()
+    }
+}
+
 /// An opaque diffuse sphere.
 #[derive(Debug, Clone)]
 pub struct Sphere {
@@ -141,6 +186,7 @@ pub struct Scene {
     pub lights: Vec<Light>,
     pub environment: Option<Environment>,
     pub strands: Strands,
+    pub cards: Cards,
     pub spheres: Vec<Sphere>,
     pub hair: HairShading,
 }

@@ -153,6 +153,7 @@ impl ShadowMap {
             scale: radius,
         };
         m.draw_hair(segments);
+        m.draw_cards(scene);
         m.draw_spheres(scene);
         Some(m)
     }
@@ -202,6 +203,81 @@ impl ShadowMap {
                         let idx = (yi as u32 * self.size + xi as u32) as usize;
                         if z < self.hair[idx] {
                             self.hair[idx] = z;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Card texels with alpha above one half count as hair.
+    fn draw_cards(&mut self, scene: &Scene) {
+        let c = &scene.cards;
+        let n = self.size as f32;
+        for q in 0..c.quad_count() {
+            for tri in [[0, 1, 2], [0, 2, 3]] {
+                let idx = tri.map(|k| 4 * q + k);
+                let m = idx.map(|i| self.proj.map(c.corners[i]));
+                let Some(m) = m.iter().copied().collect::<Option<Vec<_>>>() else {
+                    continue;
+                };
+                let p: Vec<[f32; 2]> = m.iter().map(|x| [x.0 * n, x.1 * n]).collect();
+                let area = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
+                    - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+                if area.abs() < 1e-12 || !area.is_finite() {
+                    continue;
+                }
+                let x0 = p
+                    .iter()
+                    .map(|a| a[0])
+                    .fold(f32::INFINITY, f32::min)
+                    .floor()
+                    .max(0.0) as i64;
+                let x1 = (p
+                    .iter()
+                    .map(|a| a[0])
+                    .fold(f32::NEG_INFINITY, f32::max)
+                    .ceil() as i64)
+                    .min(self.size as i64 - 1);
+                let y0 = p
+                    .iter()
+                    .map(|a| a[1])
+                    .fold(f32::INFINITY, f32::min)
+                    .floor()
+                    .max(0.0) as i64;
+                let y1 = (p
+                    .iter()
+                    .map(|a| a[1])
+                    .fold(f32::NEG_INFINITY, f32::max)
+                    .ceil() as i64)
+                    .min(self.size as i64 - 1);
+                let tex = &c.textures[c.texture[q] as usize];
+                for yi in y0..=y1 {
+                    for xi in x0..=x1 {
+                        let s = [xi as f32 + 0.5, yi as f32 + 0.5];
+                        let e = |a: [f32; 2], b: [f32; 2]| {
+                            (b[0] - a[0]) * (s[1] - a[1]) - (s[0] - a[0]) * (b[1] - a[1])
+                        };
+                        let b = [
+                            e(p[1], p[2]) / area,
+                            e(p[2], p[0]) / area,
+                            e(p[0], p[1]) / area,
+                        ];
+                        if b.iter().any(|x| *x < 0.0) {
+                            continue;
+                        }
+                        let uv = |k: usize| {
+                            b[0] * c.uvs[idx[0]][k]
+                                + b[1] * c.uvs[idx[1]][k]
+                                + b[2] * c.uvs[idx[2]][k]
+                        };
+                        if tex.sample(uv(0), uv(1)) < 0.5 {
+                            continue;
+                        }
+                        let z = b[0] * m[0].2 + b[1] * m[1].2 + b[2] * m[2].2;
+                        let i = (yi as u32 * self.size + xi as u32) as usize;
+                        if z < self.hair[i] {
+                            self.hair[i] = z;
                         }
                     }
                 }
