@@ -286,3 +286,20 @@ def test_11_degenerate_cards_are_errors(patch, msg):
     card = {"points": [[0, 0, 0], [0, 1, 0]], "width": 0.5, "normal": [0, 0, 1], **patch}
     with pytest.raises(hs.SceneError, match=msg):
         _card_scene(card)
+
+
+def test_12_opacity_shadow_model_darkens_with_more_hair():
+    """The deep-opacity shadow model: a receiver behind more hair gets less
+    light, monotonically, and the image stays finite."""
+    d = json.loads((EXAMPLES / "backlit_bundle.json").read_text())
+    d["lights"][0]["direction"] = [0.0, 0.0, 1.0]  # light from the camera side
+    d["render"]["shadow_model"] = "opacity"
+    sums = []
+    for n in (1, 20, 80):
+        d["hair"]["generate"]["strands"] = n
+        img = hs.render(hs.Scene.from_dict(d))
+        assert np.all(np.isfinite(img))
+        sums.append(img.sum() / n)  # radiance per strand
+    assert sums[0] > sums[1] > sums[2]
+    with pytest.raises(hs.SceneError, match="render.shadow_model: expected"):
+        hs.Scene.from_dict({**d, "render": {"shadow_model": "deep"}})

@@ -23,8 +23,10 @@ import numpy as np
 
 from .chiang import ChiangHair
 
-if False:  # typing only
-    from .scene import Scene  # noqa: F401
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 # Newest first; libLLVM 16+ is what drjit's LLVM backend needs.
 _LLVM_GLOBS = [
@@ -283,10 +285,10 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
     }
     if integrator not in ("direct", "path"):
         raise ValueError(f"integrator: must be 'direct' or 'path', got {integrator!r}")
+    if hair_params is None and hair_bsdf == "chiang" and (scene.strand_count > 0 or scene.cards is not None):
+        hair_params = scene.hair.params if isinstance(scene.hair, ChiangHair) else chiang_params(scene.hair)
+        hair_params = {k: v for k, v in hair_params.items() if k != "i0"}
     if scene.strand_count > 0:
-        if hair_params is None and hair_bsdf == "chiang":
-            hair_params = scene.hair.params if isinstance(scene.hair, ChiangHair) else chiang_params(scene.hair)
-            hair_params = {k: v for k, v in hair_params.items() if k != "i0"}
         pts, rad, off = _clamped_controls(scene.points, scene.radii, scene.offsets)
         write_strand_file(strand_file, pts, rad, off)
         if hair_bsdf == "chiang":
@@ -303,6 +305,8 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
         else:
             raise ValueError(f"hair_bsdf: must be 'chiang' or 'karis', got {hair_bsdf!r}")
         d["hair"] = {"type": "bsplinecurve", "filename": strand_file, "bsdf": bsdf}
+    if scene.cards is not None:
+        d.update(_card_meshes(scene, os.path.dirname(strand_file), hair_bsdf, hair_params))
     for i, s in enumerate(scene.spheres):
         d[f"sphere_{i}"] = {
             "type": "sphere", "center": s["center"], "radius": s["radius"],
@@ -321,6 +325,49 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
             raise ValueError("environment: the Mitsuba bridge supports constant environments only (SH bands > 0 given)")
         d["environment"] = {"type": "constant", "radiance": {"type": "rgb", "value": (sh[0] * 0.28209479177387814).tolist()}}
     return d
+
+
+def _card_meshes(scene: "Scene", folder: str, hair_bsdf: str, hair_params: dict[str, Any] | None) -> dict[str, Any]:
+    """Cards as OBJ meshes (one per alpha texture) under a ``mask`` BSDF whose
+    opacity is the card's alpha. u runs across the card, v along it, so the
+    mesh's shading frame has the fiber on local y (t = n x dp/du), as the
+    hair BSDFs expect. With ``hair_bsdf="karis"`` the card carries the same
+    KarisHair as the rasterizer; with "chiang", Mitsuba's near-field ``hair``
+    (evaluated at the offset h of a flat card, not the far field the
+    rasterizer uses)."""
+    import json
+
+    from .chiang import ChiangHair
+
+    c = scene.cards
+    out: dict[str, Any] = {}
+    for k, tex in enumerate(c["textures"]):
+        quads = np.nonzero(c["texture"] == k)[0]
+        if len(quads) == 0:
+            continue
+        path = os.path.join(folder, f"cards_{k}.obj")
+        with open(path, "w") as f:
+            for q in quads:
+                for v in c["corners"][q]:
+                    f.write(f"v {v[0]:.7g} {v[1]:.7g} {v[2]:.7g}\n")
+            for q in quads:
+                for uv in c["uvs"][q]:
+                    f.write(f"vt {uv[0]:.7g} {1 - uv[1]:.7g}\n")  # OBJ: v up
+            for j in range(len(quads)):
+                i = 4 * j + 1
+                f.write(f"f {i}/{i} {i + 1}/{i + 1} {i + 2}/{i + 2}\nf {i}/{i} {i + 2}/{i + 2} {i + 3}/{i + 3}\n")
+        if hair_bsdf == "karis":
+            register_plugins()
+            inner = {"type": "hairshade_karis", "params": json.dumps(scene.hair.params)}
+        else:
+            inner = hair_dict(ChiangHair(**hair_params))
+        out[f"cards_{k}"] = {
+            "type": "obj", "filename": path, "face_normals": True,
+            "bsdf": {"type": "mask", "bsdf": inner,
+                     "opacity": {"type": "bitmap", "bitmap": mi.Bitmap(np.ascontiguousarray(tex[:, :, None], dtype=np.float32)),
+                                 "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}},
+        }
+    return out
 
 
 def _clamped_controls(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray):

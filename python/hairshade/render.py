@@ -76,6 +76,7 @@ def render(
                 scene.cards["texture"],
                 [(t.shape[1], t.shape[0], t.reshape(-1).tolist()) for t in scene.cards["textures"]],
             ),
+            r["shadow_model"],
         )
     finally:
         if show:

@@ -19,7 +19,7 @@ A scene file::
       },
       "meshes": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "albedo": [0.5, 0.4, 0.3]}],
       "render": {"transparency": "mlab", "layers": 4, "shadow_map_size": 1024,
-                 "shadow_density": 20, "background": [0, 0, 0]}
+                 "shadow_model": "exponential", "shadow_density": 20, "background": [0, 0, 0]}
     }
 
 - ``direction`` of a directional light points *towards* the light;
@@ -37,6 +37,10 @@ A scene file::
   drawn.
 - ``material.model`` is ``karis`` (KarisHair keyword arguments) or
   ``chiang`` (ChiangHair keyword arguments; shaded with its far field).
+- ``render.shadow_model``: ``exponential`` (default, Karis 2016:
+  ``exp(-shadow_density * depth behind the first hair)``) or ``opacity``
+  (opacity accumulated through the hair along the light in 8 depth slabs, a
+  deep opacity map: 32 bytes per shadow-map texel).
 - ``render.background`` is the radiance behind everything when the scene
   has no environment light; with one, the environment itself is seen.
 - Every field is checked on load; an error names the file, the field's path
@@ -285,7 +289,10 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
                             albedo=c.vec3(m.get("albedo", [0.5, 0.5, 0.5]), f"{p}.albedo", 0, 1)))
 
     r = c.obj(d.get("render", {}), "render")
-    c.known(r, "render", {"transparency", "layers", "shadow_map_size", "shadow_density", "pcf_radius", "background"})
+    c.known(r, "render", {"transparency", "layers", "shadow_map_size", "shadow_model", "shadow_density", "pcf_radius", "background"})
+    shadow_model = r.get("shadow_model", "exponential")
+    if shadow_model not in ("opacity", "exponential"):
+        c.fail("render.shadow_model", f"expected 'opacity' or 'exponential', got {shadow_model!r}")
     transparency = r.get("transparency", "mlab")
     if transparency not in ("mlab", "sorted"):
         c.fail("render.transparency", f"expected 'mlab' or 'sorted', got {transparency!r}")
@@ -293,6 +300,7 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
         transparency=transparency,
         layers=int(c.num(r.get("layers", 4), "render.layers", 1, 64)),
         shadow_map_size=int(c.num(r.get("shadow_map_size", 1024), "render.shadow_map_size", 16, 8192)),
+        shadow_model=shadow_model,
         shadow_density=c.num(r.get("shadow_density", 20.0), "render.shadow_density", 0),
         pcf_radius=int(c.num(r.get("pcf_radius", 1), "render.pcf_radius", 0, 8)),
         background=c.vec3(r.get("background", [0, 0, 0]), "render.background", 0),

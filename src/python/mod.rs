@@ -829,7 +829,7 @@ fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<crate::raster::scene::Ca
 /// given, is called with (tiles done, tiles total) about 10 times a second;
 /// Ctrl-C stops the render and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None))]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential"))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -849,6 +849,7 @@ fn render<'py>(
     background: [f32; 3],
     progress: Option<Bound<'py, PyAny>>,
     cards: Option<CardArgs<'py>>,
+    shadow_model: &str,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     use crate::raster::scene::*;
     use glam::Vec3;
@@ -961,9 +962,19 @@ fn render<'py>(
             .collect(),
         hair: shading,
     };
+    let shadow_model = match shadow_model {
+        "opacity" => crate::raster::shadow::ShadowModel::Opacity,
+        "exponential" => crate::raster::shadow::ShadowModel::Exponential,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "shadow_model: must be 'opacity' or 'exponential', got {other:?}"
+            )))
+        }
+    };
     let opts = RenderOptions {
         transparency,
         shadow_map_size,
+        shadow_model,
         shadow_density,
         pcf_radius,
         background: background.into(),

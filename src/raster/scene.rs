@@ -158,8 +158,10 @@ pub struct RenderOptions {
     pub transparency: Transparency,
     /// Shadow-map resolution (square).
     pub shadow_map_size: u32,
-    /// Optical density of hair in shadow maps: transmittance
-    /// `exp(−density · depth behind the first hair)`, per scene unit.
+    /// How hair attenuates light in shadow maps.
+    pub shadow_model: super::shadow::ShadowModel,
+    /// Optical density of hair for the exponential shadow model:
+    /// transmittance `exp(−density · depth behind the first hair)`.
     pub shadow_density: f32,
     /// Shadow-map PCF kernel radius in texels (0 = one tap).
     pub pcf_radius: i32,
@@ -172,6 +174,7 @@ impl Default for RenderOptions {
         Self {
             transparency: Transparency::Mlab(4),
             shadow_map_size: 1024,
+            shadow_model: super::shadow::ShadowModel::Exponential,
             shadow_density: 20.0,
             pcf_radius: 1,
             background: Vec3::ZERO,

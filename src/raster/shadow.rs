@@ -1,8 +1,13 @@
-//! Shadow maps for hair (Karis 2016): per light, the depth of the first hair
-//! and of the first opaque surface seen from the light. A receiver at depth z
-//! behind the first hair at z_h is attenuated by `exp(−density · (z − z_h))`
-//! (an exponential falloff instead of a hard depth test: hair is a
-//! participating volume), opaque occluders block fully; both filtered by PCF.
+//! Shadow maps for hair: per light, the depth of the first hair and of the
+//! first opaque surface seen from the light; opaque occluders block fully,
+//! and hair attenuates exponentially, filtered by PCF. Two hair models:
+//!
+//! - `Opacity`: opacity accumulated along the light (a deep
+//!   opacity map): every strand crossing a texel adds its optical depth
+//!   `−ln(1 − coverage)` (cards: `−ln(1 − alpha)`) to one of `SLABS` depth
+//!   slabs behind the first hair; a receiver sees `exp(−Σ optical depth in
+//!   front of it)`. Memory: `SLABS` floats per texel.
+//! - `Exponential` (default, Karis 2016): `exp(−density · (z − z_first_hair))`.
 //! Directional lights use an orthographic map over the scene's bounding
 //! sphere, point lights a perspective map from the light towards it.
 
@@ -21,6 +26,20 @@ pub struct ShadowMap {
     pcf: i32,
     bias: f32,
     scale: f32,
+    model: ShadowModel,
+    /// Optical depth per texel and slab (Opacity model).
+    slabs: Vec<f32>,
+    slab_width: f32,
+}
+
+/// Depth slabs of the opacity model.
+pub const SLABS: usize = 8;
+
+/// How hair attenuates light in shadow maps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShadowModel {
+    Opacity,
+    Exponential,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -151,9 +170,17 @@ impl ShadowMap {
             pcf: opts.pcf_radius.max(0),
             bias: 2.0 * texel,
             scale: radius,
+            model: opts.shadow_model,
+            slabs: Vec::new(),
+            slab_width: 2.0 * radius / SLABS as f32,
         };
         m.draw_hair(segments);
-        m.draw_cards(scene);
+        m.draw_cards(scene, false);
+        if m.model == ShadowModel::Opacity {
+            m.slabs = vec![0.0; (n * n) as usize * SLABS];
+            m.accumulate_hair(segments);
+            m.draw_cards(scene, true);
+        }
         m.draw_spheres(scene);
         Some(m)
     }
@@ -210,8 +237,9 @@ impl ShadowMap {
         }
     }
 
-    /// Card texels with alpha above one half count as hair.
-    fn draw_cards(&mut self, scene: &Scene) {
+    /// Cards: their texels with alpha above one half set the first-hair
+    /// depth (`accumulate` false), or add `−ln(1 − alpha)` to their slab.
+    fn draw_cards(&mut self, scene: &Scene, accumulate: bool) {
         let c = &scene.cards;
         let n = self.size as f32;
         for q in 0..c.quad_count() {
@@ -271,14 +299,77 @@ impl ShadowMap {
                                 + b[1] * c.uvs[idx[1]][k]
                                 + b[2] * c.uvs[idx[2]][k]
                         };
-                        if tex.sample(uv(0), uv(1)) < 0.5 {
-                            continue;
-                        }
+                        let alpha = tex.sample(uv(0), uv(1));
                         let z = b[0] * m[0].2 + b[1] * m[1].2 + b[2] * m[2].2;
                         let i = (yi as u32 * self.size + xi as u32) as usize;
-                        if z < self.hair[i] {
+                        if accumulate {
+                            self.add_optical_depth(i, z, alpha);
+                        } else if alpha >= 0.5 && z < self.hair[i] {
                             self.hair[i] = z;
                         }
+                    }
+                }
+            }
+        }
+    }
+
+    #[inline]
+    fn add_optical_depth(&mut self, texel: usize, z: f32, alpha: f32) {
+        if !(alpha > 0.0) || !self.hair[texel].is_finite() {
+            return;
+        }
+        let k = (((z - self.hair[texel]) / self.slab_width).max(0.0) as usize).min(SLABS - 1);
+        self.slabs[texel * SLABS + k] += -(1.0 - alpha.min(0.95)).ln();
+    }
+
+    /// Strands' optical depth: each segment visits the texels of its
+    /// bounding box once, with the same tent coverage as the screen
+    /// rasterizer (strands thinner than a texel scale their coverage).
+    fn accumulate_hair(&mut self, segments: &[(Vec3, Vec3, f32, f32)]) {
+        let n = self.size as f32;
+        for &(a, b, ra, rb) in segments {
+            let (Some(pa), Some(pb)) = (self.proj.map(a), self.proj.map(b)) else {
+                continue;
+            };
+            let (ax, ay, bx, by) = (pa.0 * n, pa.1 * n, pb.0 * n, pb.1 * n);
+            let texels_per_unit = |z: f32| match self.proj {
+                LightProjection::Ortho { half, .. } => 0.5 * n / half,
+                LightProjection::Persp { tan_half, .. } => 0.5 * n / (z.max(1e-6) * tan_half),
+            };
+            let (wa, wb) = (
+                2.0 * ra * texels_per_unit(pa.2),
+                2.0 * rb * texels_per_unit(pb.2),
+            );
+            let pad = 0.5 * wa.max(wb).max(1.0) + 1.0;
+            let x0 = ((ax.min(bx) - pad).floor().max(0.0)) as i64;
+            let x1 = ((ax.max(bx) + pad).ceil() as i64).min(self.size as i64 - 1);
+            let y0 = ((ay.min(by) - pad).floor().max(0.0)) as i64;
+            let y1 = ((ay.max(by) + pad).ceil() as i64).min(self.size as i64 - 1);
+            let (dx, dy) = (bx - ax, by - ay);
+            let len2 = dx * dx + dy * dy;
+            for yi in y0..=y1 {
+                for xi in x0..=x1 {
+                    let (px, py) = (xi as f32 + 0.5, yi as f32 + 0.5);
+                    let t = if len2 > 0.0 {
+                        (((px - ax) * dx + (py - ay) * dy) / len2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    let dist = ((px - ax - t * dx).powi(2) + (py - ay - t * dy).powi(2)).sqrt();
+                    let mut w = wa + (wb - wa) * t;
+                    let mut scale = 1.0;
+                    if w < 1.0 {
+                        scale = w.max(0.0);
+                        w = 1.0;
+                    }
+                    let cov = (0.5 * w + 0.5 - dist).clamp(0.0, 1.0) * scale;
+                    if cov > 0.0 {
+                        let z = pa.2 + (pb.2 - pa.2) * t;
+                        self.add_optical_depth(
+                            (yi as u32 * self.size + xi as u32) as usize,
+                            z,
+                            cov,
+                        );
                     }
                 }
             }
@@ -354,10 +445,19 @@ impl ShadowMap {
                     continue;
                 }
                 let behind = z - self.hair[idx] - self.bias;
-                sum += if behind > 0.0 {
+                sum += if !(behind > 0.0) {
+                    1.0
+                } else if self.model == ShadowModel::Exponential {
                     (-self.density * behind).exp()
                 } else {
-                    1.0
+                    let s = behind / self.slab_width;
+                    let k = s as usize;
+                    let slabs = &self.slabs[idx * SLABS..idx * SLABS + SLABS];
+                    let mut tau: f32 = slabs[..k.min(SLABS)].iter().sum();
+                    if k < SLABS {
+                        tau += (s - k as f32) * slabs[k];
+                    }
+                    (-tau).exp()
                 };
             }
         }
