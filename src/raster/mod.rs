@@ -193,6 +193,48 @@ fn build_segments(scene: &Scene, view: &View) -> Vec<Segment> {
     out
 }
 
+/// A 2D triangle's signed doubled area and pixel bounding box, for
+/// barycentric rasterization; None when degenerate or non-finite.
+pub(crate) struct Tri2 {
+    p: [[f32; 2]; 3],
+    area: f32,
+    /// Inclusive pixel bounds (x0, x1, y0, y1), unclamped.
+    pub bounds: (i64, i64, i64, i64),
+}
+
+impl Tri2 {
+    pub(crate) fn new(p: [[f32; 2]; 3]) -> Option<Self> {
+        let area =
+            (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+        if area.abs() < 1e-12 || !area.is_finite() {
+            return None;
+        }
+        let (xs, ys) = (p.map(|q| q[0]), p.map(|q| q[1]));
+        let bounds = (
+            xs[0].min(xs[1]).min(xs[2]).floor() as i64,
+            xs[0].max(xs[1]).max(xs[2]).ceil() as i64,
+            ys[0].min(ys[1]).min(ys[2]).floor() as i64,
+            ys[0].max(ys[1]).max(ys[2]).ceil() as i64,
+        );
+        Some(Self { p, area, bounds })
+    }
+
+    /// Barycentric coordinates of `s`, or None outside the triangle.
+    #[inline]
+    pub(crate) fn barycentric(&self, s: [f32; 2]) -> Option<[f32; 3]> {
+        let edge = |a: [f32; 2], b: [f32; 2]| {
+            (b[0] - a[0]) * (s[1] - a[1]) - (s[0] - a[0]) * (b[1] - a[1])
+        };
+        let p = &self.p;
+        let b = [
+            edge(p[1], p[2]) / self.area,
+            edge(p[2], p[0]) / self.area,
+            edge(p[0], p[1]) / self.area,
+        ];
+        (b[0] >= 0.0 && b[1] >= 0.0 && b[2] >= 0.0).then_some(b)
+    }
+}
+
 /// A projected card triangle.
 #[derive(Debug, Clone, Copy)]
 struct CardTri {
@@ -667,33 +709,24 @@ fn render_tile(
     // Card triangles: perspective-correct barycentrics, alpha from the texture.
     for &ti in tri_bin {
         let t = &ctx.tris[ti as usize];
-        let area = (t.p[1][0] - t.p[0][0]) * (t.p[2][1] - t.p[0][1])
-            - (t.p[2][0] - t.p[0][0]) * (t.p[1][1] - t.p[0][1]);
-        if area.abs() < 1e-12 || !area.is_finite() {
-            continue;
-        }
-        let xs = t.p.map(|p| p[0]);
-        let ys = t.p.map(|p| p[1]);
-        let bx0 = ((xs[0].min(xs[1]).min(xs[2])).floor() as i64 - x0 as i64).max(0);
-        let bx1 = ((xs[0].max(xs[1]).max(xs[2])).ceil() as i64 - x0 as i64).min(tw as i64 - 1);
-        let by0 = ((ys[0].min(ys[1]).min(ys[2])).floor() as i64 - y0 as i64).max(0);
-        let by1 = ((ys[0].max(ys[1]).max(ys[2])).ceil() as i64 - y0 as i64).min(th as i64 - 1);
+        let Some(tri) = Tri2::new(t.p) else { continue };
+        let (bx0, bx1, by0, by1) = tri.bounds;
+        let (bx0, bx1) = (
+            (bx0 - x0 as i64).max(0),
+            (bx1 - x0 as i64).min(tw as i64 - 1),
+        );
+        let (by0, by1) = (
+            (by0 - y0 as i64).max(0),
+            (by1 - y0 as i64).min(th as i64 - 1),
+        );
         let tex = &scene.cards.textures[t.tex as usize];
         for j in by0..=by1 {
             for i in bx0..=bx1 {
                 let k = (j as u32 * TILE + i as u32) as usize;
                 let p = [(x0 as i64 + i) as f32 + 0.5, (y0 as i64 + j) as f32 + 0.5];
-                let edge = |a: [f32; 2], b: [f32; 2]| {
-                    (b[0] - a[0]) * (p[1] - a[1]) - (p[0] - a[0]) * (b[1] - a[1])
-                };
-                let b = [
-                    edge(t.p[1], t.p[2]) / area,
-                    edge(t.p[2], t.p[0]) / area,
-                    edge(t.p[0], t.p[1]) / area,
-                ];
-                if b.iter().any(|x| *x < 0.0) {
+                let Some(b) = tri.barycentric(p) else {
                     continue;
-                }
+                };
                 let w = [b[0] / t.z[0], b[1] / t.z[1], b[2] / t.z[2]];
                 let inv = w[0] + w[1] + w[2];
                 let depth = 1.0 / inv;

@@ -11,8 +11,8 @@
 //! Directional lights use an orthographic map over the scene's bounding
 //! sphere, point lights a perspective map from the light towards it.
 
-use super::ray_sphere;
 use super::scene::{Light, RenderOptions, Scene};
+use super::{ray_sphere, Tri2};
 use glam::Vec3;
 
 /// A built shadow map.
@@ -249,51 +249,18 @@ impl ShadowMap {
                 let Some(m) = m.iter().copied().collect::<Option<Vec<_>>>() else {
                     continue;
                 };
-                let p: Vec<[f32; 2]> = m.iter().map(|x| [x.0 * n, x.1 * n]).collect();
-                let area = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
-                    - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
-                if area.abs() < 1e-12 || !area.is_finite() {
+                let Some(tri) = Tri2::new([0, 1, 2].map(|k| [m[k].0 * n, m[k].1 * n])) else {
                     continue;
-                }
-                let x0 = p
-                    .iter()
-                    .map(|a| a[0])
-                    .fold(f32::INFINITY, f32::min)
-                    .floor()
-                    .max(0.0) as i64;
-                let x1 = (p
-                    .iter()
-                    .map(|a| a[0])
-                    .fold(f32::NEG_INFINITY, f32::max)
-                    .ceil() as i64)
-                    .min(self.size as i64 - 1);
-                let y0 = p
-                    .iter()
-                    .map(|a| a[1])
-                    .fold(f32::INFINITY, f32::min)
-                    .floor()
-                    .max(0.0) as i64;
-                let y1 = (p
-                    .iter()
-                    .map(|a| a[1])
-                    .fold(f32::NEG_INFINITY, f32::max)
-                    .ceil() as i64)
-                    .min(self.size as i64 - 1);
+                };
+                let (x0, x1, y0, y1) = tri.bounds;
+                let (x0, x1) = (x0.max(0), x1.min(self.size as i64 - 1));
+                let (y0, y1) = (y0.max(0), y1.min(self.size as i64 - 1));
                 let tex = &c.textures[c.texture[q] as usize];
                 for yi in y0..=y1 {
                     for xi in x0..=x1 {
-                        let s = [xi as f32 + 0.5, yi as f32 + 0.5];
-                        let e = |a: [f32; 2], b: [f32; 2]| {
-                            (b[0] - a[0]) * (s[1] - a[1]) - (s[0] - a[0]) * (b[1] - a[1])
-                        };
-                        let b = [
-                            e(p[1], p[2]) / area,
-                            e(p[2], p[0]) / area,
-                            e(p[0], p[1]) / area,
-                        ];
-                        if b.iter().any(|x| *x < 0.0) {
+                        let Some(b) = tri.barycentric([xi as f32 + 0.5, yi as f32 + 0.5]) else {
                             continue;
-                        }
+                        };
                         let uv = |k: usize| {
                             b[0] * c.uvs[idx[0]][k]
                                 + b[1] * c.uvs[idx[1]][k]
