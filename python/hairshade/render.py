@@ -19,6 +19,7 @@ def render(
     height: int | None = None,
     transparency: str | None = None,
     layers: int | None = None,
+    shading: str | None = None,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
@@ -26,7 +27,8 @@ def render(
 
     ``width``/``height`` override the scene's resolution (if only one is
     given the other follows the scene's aspect ratio); ``transparency``
-    ("mlab" or "sorted") and ``layers`` override the scene's render settings.
+    ("mlab" or "sorted"), ``layers`` and ``shading`` ("pixel" or "vertex")
+    override the scene's render settings.
     ``progress``: a progress bar on stderr (default: when stderr is a
     terminal). Ctrl-C stops the render (KeyboardInterrupt)."""
     cam = dict(scene.camera)
@@ -42,6 +44,10 @@ def render(
         if transparency not in ("mlab", "sorted"):
             raise ValueError(f"transparency: must be 'mlab' or 'sorted', got {transparency!r}")
         r["transparency"] = transparency
+    if shading is not None:
+        if shading not in ("pixel", "vertex"):
+            raise ValueError(f"shading: must be 'pixel' or 'vertex', got {shading!r}")
+        r["shading"] = shading
     if layers is not None:
         if not 1 <= int(layers) <= 64:
             raise ValueError(f"layers: must be in [1, 64], got {layers}")
@@ -77,6 +83,7 @@ def render(
                 [(t.shape[1], t.shape[0], t.reshape(-1).tolist()) for t in scene.cards["textures"]],
             ),
             r["shadow_model"],
+            r["shading"] == "vertex",
         )
     finally:
         if show:

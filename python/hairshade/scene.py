@@ -41,6 +41,9 @@ A scene file::
   ``exp(-shadow_density * depth behind the first hair)``) or ``opacity``
   (opacity accumulated through the hair along the light in 8 depth slabs, a
   deep opacity map: 32 bytes per shadow-map texel).
+- ``render.shading``: ``pixel`` (default: every strand fragment shaded) or
+  ``vertex`` (strands shaded once per vertex and interpolated along each
+  segment; cards are always shaded per pixel).
 - ``render.background`` is the radiance behind everything when the scene
   has no environment light; with one, the environment itself is seen.
 - Every field is checked on load; an error names the file, the field's path
@@ -289,7 +292,11 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
                             albedo=c.vec3(m.get("albedo", [0.5, 0.5, 0.5]), f"{p}.albedo", 0, 1)))
 
     r = c.obj(d.get("render", {}), "render")
-    c.known(r, "render", {"transparency", "layers", "shadow_map_size", "shadow_model", "shadow_density", "pcf_radius", "background"})
+    c.known(r, "render", {"transparency", "layers", "shadow_map_size", "shadow_model", "shadow_density", "pcf_radius",
+                          "background", "shading"})
+    shading = r.get("shading", "pixel")
+    if shading not in ("pixel", "vertex"):
+        c.fail("render.shading", f"expected 'pixel' or 'vertex', got {shading!r}")
     shadow_model = r.get("shadow_model", "exponential")
     if shadow_model not in ("opacity", "exponential"):
         c.fail("render.shadow_model", f"expected 'opacity' or 'exponential', got {shadow_model!r}")
@@ -301,6 +308,7 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
         layers=int(c.num(r.get("layers", 4), "render.layers", 1, 64)),
         shadow_map_size=int(c.num(r.get("shadow_map_size", 1024), "render.shadow_map_size", 16, 8192)),
         shadow_model=shadow_model,
+        shading=shading,
         shadow_density=c.num(r.get("shadow_density", 20.0), "render.shadow_density", 0),
         pcf_radius=int(c.num(r.get("pcf_radius", 1), "render.pcf_radius", 0, 8)),
         background=c.vec3(r.get("background", [0, 0, 0]), "render.background", 0),

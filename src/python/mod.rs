@@ -829,7 +829,7 @@ fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<crate::raster::scene::Ca
 /// given, is called with (tiles done, tiles total) about 10 times a second;
 /// Ctrl-C stops the render and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential"))]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -850,6 +850,7 @@ fn render<'py>(
     progress: Option<Bound<'py, PyAny>>,
     cards: Option<CardArgs<'py>>,
     shadow_model: &str,
+    vertex_shading: bool,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     use crate::raster::scene::*;
     use glam::Vec3;
@@ -978,6 +979,7 @@ fn render<'py>(
         shadow_density,
         pcf_radius,
         background: background.into(),
+        vertex_shading,
     };
     let total = crate::raster::tile_count(&scene);
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));

@@ -108,6 +108,9 @@ struct Segment {
     pb: Vec3,
     /// The segment ends at a strand tip (round coverage there), else butt.
     last: bool,
+    /// Shaded radiance at the ends (per-vertex shading only).
+    ca: Vec3,
+    cb: Vec3,
 }
 
 /// Statistics of one render.
@@ -149,7 +152,44 @@ fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
     (c, (0.5 * (hi - lo).length()).max(1e-6))
 }
 
-fn build_segments(scene: &Scene, view: &View) -> Vec<Segment> {
+/// Radiance shaded at every strand vertex (tangent: the central difference),
+/// for per-vertex shading.
+fn shade_vertices(
+    scene: &Scene,
+    env_model: Option<&crate::fiber::karis::KarisHair<f32>>,
+    shadows: &[Option<ShadowMap>],
+    eye: Vec3,
+) -> Vec<Vec3> {
+    let st = &scene.strands;
+    let mut owner = vec![0usize; st.points.len()];
+    for s in 0..st.strand_count() {
+        for o in &mut owner[st.offsets[s] as usize..st.offsets[s + 1] as usize] {
+            *o = s;
+        }
+    }
+    pool().install(|| {
+        (0..st.points.len())
+            .into_par_iter()
+            .map(|i| {
+                let s = owner[i];
+                let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+                let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
+                let t = (b - a).normalize_or_zero();
+                let p = st.points[i];
+                shade_hair(
+                    scene,
+                    env_model,
+                    shadows,
+                    p,
+                    t,
+                    (eye - p).normalize_or_zero(),
+                )
+            })
+            .collect()
+    })
+}
+
+fn build_segments(scene: &Scene, view: &View, vertex_colors: Option<&[Vec3]>) -> Vec<Segment> {
     let st = &scene.strands;
     let mut out = Vec::new();
     for s in 0..st.strand_count() {
@@ -157,6 +197,8 @@ fn build_segments(scene: &Scene, view: &View) -> Vec<Segment> {
         for i in i0..i1.saturating_sub(1) {
             let (mut pa, mut pb) = (st.points[i], st.points[i + 1]);
             let (mut ra, mut rb) = (st.radii[i], st.radii[i + 1]);
+            let (mut ca, mut cb) =
+                vertex_colors.map_or((Vec3::ZERO, Vec3::ZERO), |c| (c[i], c[i + 1]));
             let (mut va, mut vb) = (view.to_view(pa), view.to_view(pb));
             // Clip to the near plane.
             if va.z < view.near && vb.z < view.near {
@@ -166,13 +208,16 @@ fn build_segments(scene: &Scene, view: &View) -> Vec<Segment> {
                 let t = (view.near - va.z) / (vb.z - va.z);
                 let pc = pa + (pb - pa) * t;
                 let rc = ra + (rb - ra) * t;
+                let cc = ca + (cb - ca) * t;
                 if va.z < view.near {
                     pa = pc;
                     ra = rc;
+                    ca = cc;
                     va = view.to_view(pa);
                 } else {
                     pb = pc;
                     rb = rc;
+                    cb = cc;
                     vb = view.to_view(pb);
                 }
             }
@@ -187,6 +232,8 @@ fn build_segments(scene: &Scene, view: &View) -> Vec<Segment> {
                 pa,
                 pb,
                 last: i + 2 == i1,
+                ca,
+                cb,
             });
         }
     }
@@ -482,7 +529,6 @@ pub fn render_with_progress(
         (center - scene.camera.position).length() + radius,
     );
     let (w, h) = (view.width, view.height);
-    let segs = build_segments(scene, &view);
     let world = segs_world(scene);
     let shadows: Vec<Option<ShadowMap>> = pool().install(|| {
         scene
@@ -495,6 +541,10 @@ pub fn render_with_progress(
         (Some(_), HairShading::Karis(k)) => Some(k.environment_variant()),
         _ => None,
     };
+    let vertex_colors = opts
+        .vertex_shading
+        .then(|| shade_vertices(scene, env_model.as_ref(), &shadows, view.eye));
+    let segs = build_segments(scene, &view, vertex_colors.as_deref());
 
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -690,8 +740,18 @@ fn render_tile(
                 }
                 let tw_ = (t / s.zb) / inv;
                 let pw = s.pa + (s.pb - s.pa) * tw_;
-                let v = (view.eye - pw).normalize_or_zero();
-                let c = shade_hair(scene, ctx.env_model, shadows, pw, tangent, v);
+                let c = if opts.vertex_shading {
+                    s.ca + (s.cb - s.ca) * tw_
+                } else {
+                    shade_hair(
+                        scene,
+                        ctx.env_model,
+                        shadows,
+                        pw,
+                        tangent,
+                        (view.eye - pw).normalize_or_zero(),
+                    )
+                };
                 let frag = Fragment {
                     depth,
                     color: c * cov,

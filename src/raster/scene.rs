@@ -167,6 +167,9 @@ pub struct RenderOptions {
     pub pcf_radius: i32,
     /// Background radiance.
     pub background: Vec3,
+    /// Shade strands once per vertex and interpolate along segments
+    /// (cards are always shaded per pixel).
+    pub vertex_shading: bool,
 }
 
 impl Default for RenderOptions {
@@ -178,6 +181,7 @@ impl Default for RenderOptions {
             shadow_density: 20.0,
             pcf_radius: 1,
             background: Vec3::ZERO,
+            vertex_shading: false,
         }
     }
 }
