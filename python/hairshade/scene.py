@@ -35,8 +35,9 @@ A scene file::
   :mod:`hairshade.cards`) and ``generate_cards`` (cards around a procedural
   head). A card triangle with a corner behind the camera's near plane is not
   drawn.
-- ``material.model`` is ``karis`` (KarisHair keyword arguments) or
-  ``chiang`` (ChiangHair keyword arguments; shaded with its far field).
+- ``material.model`` is ``karis`` (KarisHair keyword arguments),
+  ``chiang`` (ChiangHair keyword arguments; shaded with its far field) or
+  ``deon`` (DEonHair keyword arguments; slow unless ``h_samples`` is set).
 - ``render.shadow_model``: ``exponential`` (default, Karis 2016:
   ``exp(-shadow_density * depth behind the first hair)``) or ``opacity``
   (opacity accumulated through the hair along the light in 8 depth slabs, a
@@ -86,14 +87,16 @@ class Scene:
     material: dict[str, Any]
     render: dict[str, Any]
     source: str = "<dict>"
-    hair: KarisHair | ChiangHair = field(init=False)
+    hair: Any = field(init=False)  # KarisHair | ChiangHair | DEonHair
     cards: dict[str, Any] | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         m = dict(self.material)
         model = m.pop("model")
+        from .deon import DEonHair
+
         try:
-            self.hair = KarisHair(**m) if model == "karis" else ChiangHair(**m)
+            self.hair = {"karis": KarisHair, "chiang": ChiangHair, "deon": DEonHair}[model](**m)
         except (TypeError, ValueError) as e:
             raise SceneError(f"{self.source}: hair.material: {e}") from None
 
@@ -271,11 +274,11 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
 
     mat = dict(c.obj(hair.get("material", {"model": "karis"}), "hair.material"))
     model = mat.get("model", "karis")
-    if model not in ("karis", "chiang"):
-        c.fail("hair.material.model", f"expected 'karis' or 'chiang', got {model!r}")
+    if model not in ("karis", "chiang", "deon"):
+        c.fail("hair.material.model", f"expected 'karis', 'chiang' or 'deon', got {model!r}")
     mat["model"] = model
-    if model == "chiang" and env is not None:
-        c.fail("lights", "an environment light needs the karis material (ChiangHair has no environment variant)")
+    if model != "karis" and env is not None:
+        c.fail("lights", f"an environment light needs the karis material ({model} has no environment variant)")
 
     spheres = []
     raw_meshes = d.get("meshes", [])

@@ -887,9 +887,11 @@ fn render<'py>(
         HairShading::Karis(k.get().m32.clone())
     } else if let Ok(c) = hair.cast::<PyChiangHair>() {
         HairShading::ChiangFar(Box::new(c.get().m32.clone()))
+    } else if let Ok(d) = hair.cast::<PyDEonHair>() {
+        HairShading::DEon(Box::new(d.get().m32.clone()))
     } else {
         return Err(PyValueError::new_err(
-            "hair: expected a KarisHair or ChiangHair model",
+            "hair: expected a KarisHair, ChiangHair or DEonHair model",
         ));
     };
     let mut ls = Vec::with_capacity(lights.len());

@@ -434,6 +434,7 @@ fn shade_hair(
                 let (wi, wo) = fiber_frame(t, v, l);
                 Vec3::from(c.eval_far(&wi, &wo))
             }
+            HairShading::DEon(d) => Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array())),
         };
         out += f * e * vis;
     }

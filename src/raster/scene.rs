@@ -4,6 +4,7 @@
 //! guard only against what would panic or poison an image.
 
 use crate::fiber::chiang::ChiangHair;
+use crate::fiber::deon::DEonHair;
 use crate::fiber::karis::KarisHair;
 use glam::Vec3;
 
@@ -141,6 +142,9 @@ pub enum HairShading {
     Karis(KarisHair<f32>),
     /// Chiang 2016 far field (for comparison with Mitsuba's `hair`).
     ChiangFar(Box<ChiangHair<f32>>),
+    /// UE4 `HairShadingRef()` (slow: an N_p integral per lobe and fragment;
+    /// use its `h_samples` mode for previews).
+    DEon(Box<DEonHair<f32>>),
 }
 
 /// Order-independent transparency.
