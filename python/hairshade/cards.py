@@ -21,28 +21,63 @@ import numpy as np
 BAKE_SIZE = (64, 256)  # (u, v) texels
 
 
-def bake_alpha(fibers: int = 24, fiber_width: float = 0.04, seed: int = 1) -> np.ndarray:
-    """(256, 64) alpha: `fibers` wavy strands across u, ending at random v in
-    [0.55, 1] (the tip is thinner), each `fiber_width` wide (in u) with a
-    linear falloff."""
+def bake_fibers(fibers: int = 24, fiber_width: float = 0.04, seed: int = 1) -> np.ndarray:
+    """The strands a baked card stands for: rows (u0, amplitude, frequency,
+    phase, end) of fibers ``u(v) = u0 + amplitude sin(2 pi frequency v + phase)``
+    for v in [0, end]."""
     if not (1 <= fibers <= 4096):
         raise ValueError(f"fibers: must be in [1, 4096], got {fibers}")
     if not (0 < fiber_width <= 1):
         raise ValueError(f"fiber_width: must be in (0, 1], got {fiber_width}")
-    nu, nv = BAKE_SIZE
     rng = np.random.default_rng(seed)
+    out = np.empty((fibers, 5))
+    for k in range(fibers):
+        u0 = rng.uniform(0.1, 0.9)
+        amp, freq, phase = rng.uniform(0.0, 0.05), rng.uniform(0.5, 2.0), rng.uniform(0, 2 * np.pi)
+        out[k] = (u0, amp, freq, phase, rng.uniform(0.55, 1.0))
+    return out
+
+
+def bake_alpha(fibers: int = 24, fiber_width: float = 0.04, seed: int = 1) -> np.ndarray:
+    """(256, 64) alpha: the fibers of :func:`bake_fibers`, each `fiber_width`
+    wide (in u) with a linear falloff, combined as 1 - prod(1 - a)."""
+    nu, nv = BAKE_SIZE
     u = (np.arange(nu) + 0.5) / nu
     v = (np.arange(nv) + 0.5) / nv
     alpha = np.zeros((nv, nu))
-    for _ in range(fibers):
-        u0 = rng.uniform(0.1, 0.9)
-        amp, freq, phase = rng.uniform(0.0, 0.05), rng.uniform(0.5, 2.0), rng.uniform(0, 2 * np.pi)
-        end = rng.uniform(0.55, 1.0)
+    for u0, amp, freq, phase, end in bake_fibers(fibers, fiber_width, seed):
         center = u0 + amp * np.sin(2 * np.pi * freq * v + phase)  # (nv,)
         d = np.abs(u[None, :] - center[:, None]) / (0.5 * fiber_width)
         a = np.clip(1 - d, 0, 1) * (v[:, None] <= end)
         alpha = 1 - (1 - alpha) * (1 - a)
     return alpha.astype(np.float32)
+
+
+def card_fiber_strands(points: np.ndarray, width: float, normal: np.ndarray, bake: dict[str, Any],
+                       samples: int = 24) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The baked card's fibers as world-space strands lying on the card:
+    what the alpha texture stands for, as geometry (for renderers whose
+    shadow rays ignore opacity). Fiber radius: a quarter of the fiber width,
+    so that a solid fiber covers as much as the texture's tent profile."""
+    p = np.asarray(points, dtype=np.float64)
+    seg = np.diff(p, axis=0)
+    lens = np.linalg.norm(seg, axis=1)
+    v_knots = np.concatenate([[0.0], np.cumsum(lens)]) / lens.sum()
+    t = np.vstack([seg[:1], seg[:-1] + seg[1:], seg[-1:]])
+    b = np.cross(t, normal)
+    b /= np.linalg.norm(b, axis=1, keepdims=True)
+    fw = float(bake.get("fiber_width", 0.04))
+    fibers = bake_fibers(int(bake.get("fibers", 24)), fw, int(bake.get("seed", 1)))
+    pts, rads = [], []
+    for u0, amp, freq, phase, end in fibers:
+        v = np.linspace(0.0, end, samples)
+        u = u0 + amp * np.sin(2 * np.pi * freq * v + phase)
+        spine = np.stack([np.interp(v, v_knots, p[:, k]) for k in range(3)], -1)
+        side = np.stack([np.interp(v, v_knots, b[:, k]) for k in range(3)], -1)
+        side /= np.linalg.norm(side, axis=1, keepdims=True)
+        pts.append(spine + (u - 0.5)[:, None] * width * side)
+        rads.append(np.full(samples, 0.25 * fw * width))
+    return pts, rads
 
 
 def load_alpha(spec: dict[str, Any], base_dir: str) -> np.ndarray:

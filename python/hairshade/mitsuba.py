@@ -254,7 +254,7 @@ def register_plugins() -> None:
 
 def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "direct", max_depth: int = 64,
                width: int | None = None, height: int | None = None, hair_params: dict[str, Any] | None = None,
-               hair_bsdf: str = "chiang") -> dict[str, Any]:
+               hair_bsdf: str = "chiang", cards_as_fibers: bool = True) -> dict[str, Any]:
     """The Mitsuba scene dictionary of a hairshade scene. Strands become a
     ``bsplinecurve`` (written to ``strand_file``; its frame has the tangent
     on local y as the ``hair`` BSDF requires, which ``linearcurve``'s does
@@ -291,22 +291,17 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
     if scene.strand_count > 0:
         pts, rad, off = _clamped_controls(scene.points, scene.radii, scene.offsets)
         write_strand_file(strand_file, pts, rad, off)
-        if hair_bsdf == "chiang":
-            bsdf = hair_dict(ChiangHair(**hair_params))
-        elif hair_bsdf == "karis":
-            import json
-
-            from .karis import KarisHair
-
-            if not isinstance(scene.hair, KarisHair):
-                raise ValueError("hair_bsdf: 'karis' needs a scene whose material is KarisHair")
-            register_plugins()
-            bsdf = {"type": "hairshade_karis", "params": json.dumps(scene.hair.params)}
-        else:
-            raise ValueError(f"hair_bsdf: must be 'chiang' or 'karis', got {hair_bsdf!r}")
-        d["hair"] = {"type": "bsplinecurve", "filename": strand_file, "bsdf": bsdf}
+        d["hair"] = {"type": "bsplinecurve", "filename": strand_file, "bsdf": _curve_bsdf(scene, hair_bsdf, hair_params)}
     if scene.cards is not None:
-        d.update(_card_meshes(scene, os.path.dirname(strand_file), hair_bsdf, hair_params))
+        if cards_as_fibers and scene.cards["fibers"] is not None:
+            fpts, frads = scene.cards["fibers"]
+            off = np.concatenate([[0], np.cumsum([len(x) for x in fpts])])
+            path = os.path.join(os.path.dirname(strand_file), "card_fibers.txt")
+            cp, cr, co = _clamped_controls(np.concatenate(fpts), np.concatenate(frads), off)
+            write_strand_file(path, cp, cr, co)
+            d["card_fibers"] = {"type": "bsplinecurve", "filename": path, "bsdf": _curve_bsdf(scene, hair_bsdf, hair_params)}
+        else:
+            d.update(_card_meshes(scene, os.path.dirname(strand_file), hair_bsdf, hair_params))
     for i, s in enumerate(scene.spheres):
         d[f"sphere_{i}"] = {
             "type": "sphere", "center": s["center"], "radius": s["radius"],
@@ -325,6 +320,22 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
             raise ValueError("environment: the Mitsuba bridge supports constant environments only (SH bands > 0 given)")
         d["environment"] = {"type": "constant", "radiance": {"type": "rgb", "value": (sh[0] * 0.28209479177387814).tolist()}}
     return d
+
+
+def _curve_bsdf(scene: "Scene", hair_bsdf: str, hair_params: dict[str, Any] | None) -> dict[str, Any]:
+    from .chiang import ChiangHair
+    from .karis import KarisHair
+
+    if hair_bsdf == "chiang":
+        return hair_dict(ChiangHair(**hair_params))
+    if hair_bsdf == "karis":
+        import json
+
+        if not isinstance(scene.hair, KarisHair):
+            raise ValueError("hair_bsdf: 'karis' needs a scene whose material is KarisHair")
+        register_plugins()
+        return {"type": "hairshade_karis", "params": json.dumps(scene.hair.params)}
+    raise ValueError(f"hair_bsdf: must be 'chiang' or 'karis', got {hair_bsdf!r}")
 
 
 def _card_meshes(scene: "Scene", folder: str, hair_bsdf: str, hair_params: dict[str, Any] | None) -> dict[str, Any]:

@@ -323,7 +323,7 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
 
 def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any] | None:
     """Cards as flat arrays for the renderer, or None."""
-    from .cards import card_quads, head_cards, load_alpha
+    from .cards import card_fiber_strands, card_quads, head_cards, load_alpha
 
     raw = hair.get("cards", [])
     if not isinstance(raw, list):
@@ -338,6 +338,9 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
     if not entries:
         return None
     corners, uvs, tangents, tex_index = [], [], [], []
+    fiber_pts: list[np.ndarray] = []
+    fiber_rads: list[np.ndarray] = []
+    all_baked = True
     textures: list[np.ndarray] = []
     tex_keys: dict[str, int] = {}
     for path, card in entries:
@@ -366,6 +369,12 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         corners.append(q)
         uvs.append(uv)
         tangents.append(t)
+        if "bake" in alpha_spec:
+            fp, fr = card_fiber_strands(pts, width, normal / np.linalg.norm(normal), alpha_spec["bake"])
+            fiber_pts += fp
+            fiber_rads += fr
+        else:
+            all_baked = False
         tex_index.append(np.full(len(t), tex_keys[key], dtype=np.uint32))
     return dict(
         corners=np.concatenate(corners).astype(np.float32),
@@ -373,6 +382,8 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         tangents=np.concatenate(tangents).astype(np.float32),
         texture=np.concatenate(tex_index),
         textures=textures,
+        # The fibers baked cards stand for (None unless every card is baked).
+        fibers=(fiber_pts, fiber_rads) if all_baked else None,
     )
 
 
