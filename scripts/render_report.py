@@ -30,9 +30,13 @@ head = hs.Scene.load(EX + "strand_head.json")
 hs.render(head, width=160, height=90, progress=False)
 print("| scene | resolution | rasterizer ms/frame |")
 print("| --- | --- | --- |")
+cards = hs.Scene.load(EX + "card_head.json")
 for w, h in ((640, 360), (1280, 720)):
     _, t = timed(lambda: hs.render(head, width=w, height=h, progress=False), repeats=2)
-    print(f"| strand_head (25k strands x 16 segments) | {w}x{h} | {t * 1000:.0f} |")
+    _, tv = timed(lambda: hs.render(head, width=w, height=h, shading="vertex", progress=False), repeats=2)
+    _, tc = timed(lambda: hs.render(cards, width=w, height=h, progress=False), repeats=2)
+    print(f"| strand_head (25k strands x 16 segments) | {w}x{h} | {t * 1000:.0f} (vertex shading {tv * 1000:.0f}) |")
+    print(f"| card_head (600 cards x 8 segments) | {w}x{h} | {tc * 1000:.0f} |")
 
 exact = hs.render(head, width=320, height=180, transparency="sorted", progress=False)
 for k in (1, 2, 4, 8):
@@ -42,7 +46,7 @@ for k in (1, 2, 4, 8):
 
 print("\n| scene | rasterizer | Mitsuba path, 64 spp | relMSE | mean FLIP |")
 print("| --- | --- | --- | --- | --- |")
-for name in ("single_strand", "backlit_bundle", "strand_head"):
+for name in ("single_strand", "backlit_bundle", "strand_head", "card_head"):
     s = hs.Scene.load(EX + name + ".json")
     w, h = (320, 180)
     a, ta = timed(lambda: hs.render(s, width=w, height=h, progress=False), repeats=1)
