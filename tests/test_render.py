@@ -340,3 +340,14 @@ def test_14_deon_shading_matches_karis_within_the_table_error():
     assert np.all(np.isfinite(deon)) and deon.max() > 0
     rel_l2 = np.linalg.norm(deon - karis) / np.linalg.norm(deon)
     assert 0.01 < rel_l2 < 0.15, rel_l2
+
+
+def test_15_opaque_culling_is_exact():
+    """Skipping hair behind a tile's farthest opaque surface changes nothing."""
+    d = json.loads((EXAMPLES / "strand_head.json").read_text())
+    d["hair"]["generate"]["strands"] = 3000
+    s = hs.Scene.from_dict(d)
+    a, sa = hs.render(s, width=160, height=90, return_stats=True)
+    b, sb = hs.render(s, width=160, height=90, opaque_culling=False, return_stats=True)
+    np.testing.assert_array_equal(a, b)
+    assert sa["culled_behind_opaque"] > 0 and sb["culled_behind_opaque"] == 0

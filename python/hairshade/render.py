@@ -20,6 +20,7 @@ def render(
     transparency: str | None = None,
     layers: int | None = None,
     shading: str | None = None,
+    opaque_culling: bool = True,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
@@ -28,7 +29,9 @@ def render(
     ``width``/``height`` override the scene's resolution (if only one is
     given the other follows the scene's aspect ratio); ``transparency``
     ("mlab" or "sorted"), ``layers`` and ``shading`` ("pixel" or "vertex")
-    override the scene's render settings.
+    override the scene's render settings. ``opaque_culling`` skips hair
+    behind a tile's farthest opaque surface (an exact skip: the image is
+    identical; off only to measure it).
     ``progress``: a progress bar on stderr (default: when stderr is a
     terminal). Ctrl-C stops the render (KeyboardInterrupt)."""
     cam = dict(scene.camera)
@@ -84,6 +87,7 @@ def render(
             ),
             r["shadow_model"],
             r["shading"] == "vertex",
+            opaque_culling,
         )
     finally:
         if show:

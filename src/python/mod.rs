@@ -829,7 +829,7 @@ fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<crate::raster::scene::Ca
 /// given, is called with (tiles done, tiles total) about 10 times a second;
 /// Ctrl-C stops the render and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false))]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -851,6 +851,7 @@ fn render<'py>(
     cards: Option<CardArgs<'py>>,
     shadow_model: &str,
     vertex_shading: bool,
+    opaque_culling: bool,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     use crate::raster::scene::*;
     use glam::Vec3;
@@ -982,6 +983,7 @@ fn render<'py>(
         pcf_radius,
         background: background.into(),
         vertex_shading,
+        opaque_culling,
     };
     let total = crate::raster::tile_count(&scene);
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
@@ -1019,6 +1021,7 @@ fn render<'py>(
     d.set_item("segments_visible", stats.segments_visible)?;
     d.set_item("fragments", stats.fragments)?;
     d.set_item("non_finite_pixels", stats.non_finite_pixels)?;
+    d.set_item("culled_behind_opaque", stats.culled_behind_opaque)?;
     Ok((PyArray1::from_vec(py, image.data), d))
 }
 

@@ -120,6 +120,9 @@ pub struct RenderStats {
     pub segments_visible: usize,
     pub fragments: u64,
     pub non_finite_pixels: u64,
+    /// Segment or card-triangle visits skipped because the tile's opaque
+    /// surface is in front of them everywhere.
+    pub culled_behind_opaque: u64,
 }
 
 /// The rendered image: linear radiance, row-major, RGB.
@@ -574,13 +577,13 @@ pub fn render_with_progress(
         }
     }
 
-    let results: Vec<(Vec<f32>, u64, u64)> = pool().install(|| {
+    let results: Vec<(Vec<f32>, u64, u64, u64)> = pool().install(|| {
         bins.par_iter()
             .zip(tri_bins.par_iter())
             .enumerate()
             .map(|(ti, (bin, tri_bin))| {
                 if cancel.load(Ordering::Relaxed) {
-                    return (Vec::new(), 0, 0);
+                    return (Vec::new(), 0, 0, 0);
                 }
                 let ctx = TileContext {
                     scene,
@@ -607,9 +610,10 @@ pub fn render_with_progress(
         segments_visible: visible,
         ..Default::default()
     };
-    for (ti, (tile, frags, bad)) in results.into_iter().enumerate() {
+    for (ti, (tile, frags, bad, culled)) in results.into_iter().enumerate() {
         stats.fragments += frags;
         stats.non_finite_pixels += bad;
+        stats.culled_behind_opaque += culled;
         let (tx, ty) = (ti as u32 % tiles_x, ti as u32 / tiles_x);
         for j in 0..TILE {
             let y = ty * TILE + j;
@@ -666,7 +670,7 @@ fn render_tile(
     tri_bin: &[u32],
     tx: u32,
     ty: u32,
-) -> (Vec<f32>, u64, u64) {
+) -> (Vec<f32>, u64, u64, u64) {
     let (scene, opts, view, shadows, segs) = (ctx.scene, ctx.opts, ctx.view, ctx.shadows, ctx.segs);
     let n = (TILE * TILE) as usize;
     let (x0, y0) = (tx * TILE, ty * TILE);
@@ -715,8 +719,19 @@ fn render_tile(
         Transparency::Mlab(_) => Vec::new(),
     };
     let mut frags = 0u64;
+    // Opaque early-out: hair entirely behind the farthest opaque surface of a
+    // fully covered tile cannot be seen (the sphere hides what is behind it).
+    let tile_far_opaque = (0..th)
+        .flat_map(|j| (0..tw).map(move |i| (j * TILE + i) as usize))
+        .map(|k| opaque_depth[k])
+        .fold(0.0f32, f32::max);
+    let mut culled = 0u64;
     for &si in bin {
         let s = &segs[si as usize];
+        if opts.opaque_culling && s.za.min(s.zb) >= tile_far_opaque {
+            culled += 1;
+            continue;
+        }
         let pad = 0.5 * s.wa.max(s.wb).max(1.0) + 1.0;
         let bx0 = ((s.a[0].min(s.b[0]) - pad).floor() as i64 - x0 as i64).max(0) as u32;
         let bx1 = ((s.a[0].max(s.b[0]) + pad).ceil() as i64 - x0 as i64).min(tw as i64 - 1);
@@ -770,6 +785,10 @@ fn render_tile(
     // Card triangles: perspective-correct barycentrics, alpha from the texture.
     for &ti in tri_bin {
         let t = &ctx.tris[ti as usize];
+        if opts.opaque_culling && t.z[0].min(t.z[1]).min(t.z[2]) >= tile_far_opaque {
+            culled += 1;
+            continue;
+        }
         let Some(tri) = Tri2::new(t.p) else { continue };
         let (bx0, bx1, by0, by1) = tri.bounds;
         let (bx0, bx1) = (
@@ -833,7 +852,7 @@ fn render_tile(
             }
         }
     }
-    (out, frags, bad)
+    (out, frags, bad, culled)
 }
 
 /// Nearest positive ray parameter of a ray-sphere hit.

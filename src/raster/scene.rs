@@ -174,6 +174,9 @@ pub struct RenderOptions {
     /// Shade strands once per vertex and interpolate along segments
     /// (cards are always shaded per pixel).
     pub vertex_shading: bool,
+    /// Skip hair behind a tile's farthest opaque surface (exact: such hair
+    /// fails every pixel's depth test anyway).
+    pub opaque_culling: bool,
 }
 
 impl Default for RenderOptions {
@@ -186,6 +189,7 @@ impl Default for RenderOptions {
             pcf_radius: 1,
             background: Vec3::ZERO,
             vertex_shading: false,
+            opaque_culling: true,
         }
     }
 }
