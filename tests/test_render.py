@@ -351,3 +351,24 @@ def test_15_opaque_culling_is_exact():
     b, sb = hs.render(s, width=160, height=90, opaque_culling=False, return_stats=True)
     np.testing.assert_array_equal(a, b)
     assert sa["culled_behind_opaque"] > 0 and sb["culled_behind_opaque"] == 0
+
+
+def test_16_obj_mesh_is_lambertian_and_validated(tmp_path):
+    """An OBJ floor lit by a directional light has radiance albedo/pi * E cos(theta)
+    (exact for a flat diffuse surface); malformed OBJ files name the line."""
+    (tmp_path / "floor.obj").write_text("v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3 4\n")
+    e, albedo = 2.0, 0.6
+    light = np.array([0.3, 1.0, 0.2])
+    d = {
+        "hairshade_scene": 1,
+        "camera": {"position": [0, 2, 0.01], "target": [0, 0, 0], "up": [0, 0, -1], "fov": 30, "resolution": [33, 33]},
+        "lights": [{"type": "directional", "direction": light.tolist(), "intensity": [e, e, e], "shadows": True}],
+        "meshes": [{"type": "obj", "file": "floor.obj", "albedo": [albedo] * 3}],
+    }
+    img = hs.render(hs.Scene.from_dict(d, base_dir=str(tmp_path)))
+    expect = albedo / np.pi * e * light[1] / np.linalg.norm(light)
+    np.testing.assert_allclose(img[16, 16], expect, rtol=1e-5)
+    (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    d["meshes"][0]["file"] = "bad.obj"
+    with pytest.raises(hs.SceneError, match=r"meshes\[0\].file: .*bad.obj:3: face indices out of range"):
+        hs.Scene.from_dict(d, base_dir=str(tmp_path))

@@ -307,6 +307,9 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
             "type": "sphere", "center": s["center"], "radius": s["radius"],
             "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": s["albedo"]}},
         }
+    for i, m in enumerate(scene.obj_meshes):
+        d[f"obj_{i}"] = {"type": "obj", "filename": m["file"], "face_normals": True,
+                         "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": m["albedo"]}}}}
     for i, l in enumerate(scene.lights):
         if l["type"] == "directional":
             v = np.asarray(l["vector"], dtype=np.float64)

@@ -88,6 +88,10 @@ def render(
             r["shadow_model"],
             r["shading"] == "vertex",
             opaque_culling,
+            None if not scene.obj_meshes else (
+                np.concatenate([m["triangles"].reshape(-1) for m in scene.obj_meshes]).astype(np.float32),
+                np.concatenate([np.tile(np.asarray(m["albedo"], np.float32), len(m["triangles"])) for m in scene.obj_meshes]),
+            ),
         )
     finally:
         if show:

@@ -17,7 +17,8 @@ A scene file::
         "generate": {"kind": "head", "strands": 3000, "segments": 16, ...},
         "material": {"model": "karis", "base_color": [0.3, 0.15, 0.08], "roughness": 0.5}
       },
-      "meshes": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "albedo": [0.5, 0.4, 0.3]}],
+      "meshes": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "albedo": [0.5, 0.4, 0.3]},
+                 {"type": "obj", "file": "floor.obj", "albedo": [0.6, 0.6, 0.6]}],
       "render": {"transparency": "mlab", "layers": 4, "shadow_map_size": 1024,
                  "shadow_model": "exponential", "shadow_density": 20, "background": [0, 0, 0]}
     }
@@ -89,6 +90,7 @@ class Scene:
     source: str = "<dict>"
     hair: Any = field(init=False)  # KarisHair | ChiangHair | DEonHair
     cards: dict[str, Any] | None = field(default=None, init=False)
+    obj_meshes: list[dict[str, Any]] = field(default_factory=list, init=False)
 
     def __post_init__(self) -> None:
         m = dict(self.material)
@@ -281,14 +283,24 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
         c.fail("lights", f"an environment light needs the karis material ({model} has no environment variant)")
 
     spheres = []
+    obj_meshes = []
     raw_meshes = d.get("meshes", [])
     if not isinstance(raw_meshes, list):
         c.fail("meshes", "expected a list")
     for i, m in enumerate(raw_meshes):
         p = f"meshes[{i}]"
         m = c.obj(m, p)
+        if m.get("type") == "obj":
+            c.known(m, p, {"type", "file", "albedo"})
+            f = m.get("file")
+            if not isinstance(f, str):
+                c.fail(f"{p}.file", f"expected a path, got {f!r}")
+            path = os.path.join(base_dir, f)
+            tris = _read_obj(path, c, f"{p}.file")
+            obj_meshes.append(dict(file=path, albedo=c.vec3(m.get("albedo", [0.5, 0.5, 0.5]), f"{p}.albedo", 0, 1), triangles=tris))
+            continue
         if m.get("type") != "sphere":
-            c.fail(f"{p}.type", f"expected 'sphere', got {m.get('type')!r}")
+            c.fail(f"{p}.type", f"expected 'sphere' or 'obj', got {m.get('type')!r}")
         c.known(m, p, {"type", "center", "radius", "albedo"})
         spheres.append(dict(center=c.vec3(m.get("center"), f"{p}.center"),
                             radius=c.num(m.get("radius"), f"{p}.radius", 0, lo_open=True),
@@ -318,7 +330,44 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
     )
     scene = Scene(camera, lights, env, points, radii, offsets, spheres, mat, render, source)
     scene.cards = cards
+    scene.obj_meshes = obj_meshes
     return scene
+
+
+def _read_obj(path: str, c: _Ctx, field_path: str) -> np.ndarray:
+    """Triangles (T, 3, 3) of an OBJ file's `v` and `f` lines (polygons fan-
+    triangulated; texture/normal indices and everything else ignored)."""
+    try:
+        with open(path) as f:
+            lines = f.read().splitlines()
+    except FileNotFoundError:
+        c.fail(field_path, f"{path}: file not found")
+    verts: list[list[float]] = []
+    tris: list[list[int]] = []
+    for n, line in enumerate(lines, 1):
+        parts = line.split("#", 1)[0].split()
+        if not parts:
+            continue
+        if parts[0] == "v":
+            try:
+                v = [float(x) for x in parts[1:4]]
+            except ValueError:
+                v = []
+            if len(v) != 3 or not all(math.isfinite(x) for x in v):
+                c.fail(field_path, f"{path}:{n}: expected 'v x y z' with finite numbers, got {line!r}")
+            verts.append(v)
+        elif parts[0] == "f":
+            try:
+                idx = [int(x.split("/")[0]) for x in parts[1:]]
+            except ValueError:
+                c.fail(field_path, f"{path}:{n}: bad face {line!r}")
+            idx = [i - 1 if i > 0 else len(verts) + i for i in idx]
+            if len(idx) < 3 or any(i < 0 or i >= len(verts) for i in idx):
+                c.fail(field_path, f"{path}:{n}: face indices out of range in {line!r}")
+            tris += [[idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1)]
+    if not tris:
+        c.fail(field_path, f"{path}: no faces")
+    return np.asarray(verts, dtype=np.float32)[np.asarray(tris)]
 
 
 def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any] | None:

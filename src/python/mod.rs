@@ -829,7 +829,7 @@ fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<crate::raster::scene::Ca
 /// given, is called with (tiles done, tiles total) about 10 times a second;
 /// Ctrl-C stops the render and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true))]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true, triangles=None))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -852,6 +852,7 @@ fn render<'py>(
     shadow_model: &str,
     vertex_shading: bool,
     opaque_culling: bool,
+    triangles: Option<(PyReadonlyArray1<'py, f32>, PyReadonlyArray1<'py, f32>)>,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     use crate::raster::scene::*;
     use glam::Vec3;
@@ -956,6 +957,25 @@ fn render<'py>(
             offsets: off.to_vec(),
         },
         cards: build_cards(cards)?,
+        triangles: match &triangles {
+            None => Vec::new(),
+            Some((p, a)) => {
+                let (p, a) = (slice(p, "triangles")?, slice(a, "triangles")?);
+                if p.len() != 3 * a.len() || a.len() % 3 != 0 {
+                    return Err(PyValueError::new_err(
+                        "triangles: expected 9 position and 3 albedo values per triangle",
+                    ));
+                }
+                (0..a.len() / 3)
+                    .map(|t| crate::raster::scene::OpaqueTri {
+                        p: std::array::from_fn(|k| {
+                            Vec3::new(p[9 * t + 3 * k], p[9 * t + 3 * k + 1], p[9 * t + 3 * k + 2])
+                        }),
+                        albedo: Vec3::new(a[3 * t], a[3 * t + 1], a[3 * t + 2]),
+                    })
+                    .collect()
+            }
+        },
         spheres: spheres
             .into_iter()
             .map(|(c, r, a)| Sphere {

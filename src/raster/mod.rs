@@ -140,7 +140,12 @@ fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
         lo = lo.min(*p - Vec3::splat(*r));
         hi = hi.max(*p + Vec3::splat(*r));
     }
-    for c in &scene.cards.corners {
+    for c in scene
+        .cards
+        .corners
+        .iter()
+        .chain(scene.triangles.iter().flat_map(|t| t.p.iter()))
+    {
         lo = lo.min(*c);
         hi = hi.max(*c);
     }
@@ -296,6 +301,42 @@ struct CardTri {
     tex: u32,
 }
 
+/// A projected opaque triangle.
+#[derive(Debug, Clone, Copy)]
+struct SolidTri {
+    p: [[f32; 2]; 3],
+    z: [f32; 3],
+    world: [Vec3; 3],
+    normal: Vec3,
+    albedo: Vec3,
+}
+
+/// Opaque mesh triangles, projected; a triangle with a corner behind the
+/// near plane is dropped (meshes are not clipped).
+fn build_solid_tris(scene: &Scene, view: &View) -> Vec<SolidTri> {
+    scene
+        .triangles
+        .iter()
+        .filter_map(|t| {
+            let v = t.p.map(|x| view.to_view(x));
+            if v.iter().any(|x| !(x.z > view.near)) {
+                return None;
+            }
+            let n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero();
+            Some(SolidTri {
+                p: v.map(|x| {
+                    let (a, b) = view.project(x);
+                    [a, b]
+                }),
+                z: v.map(|x| x.z),
+                world: t.p,
+                normal: n,
+                albedo: t.albedo,
+            })
+        })
+        .collect()
+}
+
 /// Card quads as triangles; a triangle with a corner behind the near plane
 /// is dropped (cards are not clipped).
 fn build_card_tris(scene: &Scene, view: &View) -> Vec<CardTri> {
@@ -325,9 +366,9 @@ fn build_card_tris(scene: &Scene, view: &View) -> Vec<CardTri> {
     out
 }
 
-fn tri_tile_range(t: &CardTri, tiles_x: u32, tiles_y: u32) -> Option<(u32, u32, u32, u32)> {
-    let xs = t.p.map(|p| p[0]);
-    let ys = t.p.map(|p| p[1]);
+fn tri_tile_range(p: &[[f32; 2]; 3], tiles_x: u32, tiles_y: u32) -> Option<(u32, u32, u32, u32)> {
+    let xs = p.map(|p| p[0]);
+    let ys = p.map(|p| p[1]);
     let (x0, x1) = (
         xs.iter().cloned().fold(f32::INFINITY, f32::min),
         xs.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
@@ -568,10 +609,22 @@ pub fn render_with_progress(
     let tris = build_card_tris(scene, &view);
     let mut tri_bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
     for (i, t) in tris.iter().enumerate() {
-        if let Some((x0, y0, x1, y1)) = tri_tile_range(t, tiles_x, tiles_y) {
+        if let Some((x0, y0, x1, y1)) = tri_tile_range(&t.p, tiles_x, tiles_y) {
             for ty in y0..=y1 {
                 for tx in x0..=x1 {
                     tri_bins[(ty * tiles_x + tx) as usize].push(i as u32);
+                }
+            }
+        }
+    }
+
+    let solids = build_solid_tris(scene, &view);
+    let mut solid_bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
+    for (i, t) in solids.iter().enumerate() {
+        if let Some((x0, y0, x1, y1)) = tri_tile_range(&t.p, tiles_x, tiles_y) {
+            for ty in y0..=y1 {
+                for tx in x0..=x1 {
+                    solid_bins[(ty * tiles_x + tx) as usize].push(i as u32);
                 }
             }
         }
@@ -593,6 +646,8 @@ pub fn render_with_progress(
                     env_model: env_model.as_ref(),
                     segs: &segs,
                     tris: &tris,
+                    solids: &solids,
+                    solid_bin: &solid_bins[ti],
                 };
                 let r = render_tile(&ctx, bin, tri_bin, ti as u32 % tiles_x, ti as u32 / tiles_x);
                 done.fetch_add(1, Ordering::Relaxed);
@@ -662,6 +717,8 @@ struct TileContext<'a> {
     env_model: Option<&'a crate::fiber::karis::KarisHair<f32>>,
     segs: &'a [Segment],
     tris: &'a [CardTri],
+    solids: &'a [SolidTri],
+    solid_bin: &'a [u32],
 }
 
 fn render_tile(
@@ -719,6 +776,44 @@ fn render_tile(
         Transparency::Mlab(_) => Vec::new(),
     };
     let mut frags = 0u64;
+    // Opaque mesh triangles: nearest depth and diffuse shading per pixel.
+    for &si in ctx.solid_bin {
+        let t = &ctx.solids[si as usize];
+        let Some(tri) = Tri2::new(t.p) else { continue };
+        let (bx0, bx1, by0, by1) = tri.bounds;
+        let (bx0, bx1) = (
+            (bx0 - x0 as i64).max(0),
+            (bx1 - x0 as i64).min(tw as i64 - 1),
+        );
+        let (by0, by1) = (
+            (by0 - y0 as i64).max(0),
+            (by1 - y0 as i64).min(th as i64 - 1),
+        );
+        for j in by0..=by1 {
+            for i in bx0..=bx1 {
+                let k = (j as u32 * TILE + i as u32) as usize;
+                let p = [(x0 as i64 + i) as f32 + 0.5, (y0 as i64 + j) as f32 + 0.5];
+                let Some(b) = tri.barycentric(p) else {
+                    continue;
+                };
+                let w = [b[0] / t.z[0], b[1] / t.z[1], b[2] / t.z[2]];
+                let depth = 1.0 / (w[0] + w[1] + w[2]);
+                if !(depth > view.near && depth < opaque_depth[k]) {
+                    continue;
+                }
+                opaque_depth[k] = depth;
+                let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
+                // Two-sided: the normal faces the camera.
+                let n = if t.normal.dot(view.eye - pw) < 0.0 {
+                    -t.normal
+                } else {
+                    t.normal
+                };
+                base[k] = shade_diffuse(scene, shadows, pw, n, t.albedo);
+            }
+        }
+    }
+
     // Opaque early-out: hair entirely behind the farthest opaque surface of a
     // fully covered tile cannot be seen (the sphere hides what is behind it).
     let tile_far_opaque = (0..th)

@@ -135,6 +135,13 @@ pub struct Sphere {
     pub albedo: Vec3,
 }
 
+/// An opaque diffuse triangle (from OBJ meshes).
+#[derive(Debug, Clone)]
+pub struct OpaqueTri {
+    pub p: [Vec3; 3],
+    pub albedo: Vec3,
+}
+
 /// How hair is shaded.
 #[derive(Debug, Clone)]
 pub enum HairShading {
@@ -203,5 +210,6 @@ pub struct Scene {
     pub strands: Strands,
     pub cards: Cards,
     pub spheres: Vec<Sphere>,
+    pub triangles: Vec<OpaqueTri>,
     pub hair: HairShading,
 }

@@ -182,6 +182,7 @@ impl ShadowMap {
             m.draw_cards(scene, true);
         }
         m.draw_spheres(scene);
+        m.draw_triangles(scene);
         Some(m)
     }
 
@@ -337,6 +338,33 @@ impl ShadowMap {
                             z,
                             cov,
                         );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Opaque mesh triangles into the opaque depth.
+    fn draw_triangles(&mut self, scene: &Scene) {
+        let n = self.size as f32;
+        for t in &scene.triangles {
+            let m = t.p.map(|c| self.proj.map(c));
+            let Some(m) = m.iter().copied().collect::<Option<Vec<_>>>() else {
+                continue;
+            };
+            let Some(tri) = Tri2::new([0, 1, 2].map(|k| [m[k].0 * n, m[k].1 * n])) else {
+                continue;
+            };
+            let (x0, x1, y0, y1) = tri.bounds;
+            for yi in y0.max(0)..=y1.min(self.size as i64 - 1) {
+                for xi in x0.max(0)..=x1.min(self.size as i64 - 1) {
+                    let Some(b) = tri.barycentric([xi as f32 + 0.5, yi as f32 + 0.5]) else {
+                        continue;
+                    };
+                    let z = b[0] * m[0].2 + b[1] * m[1].2 + b[2] * m[2].2;
+                    let i = (yi as u32 * self.size + xi as u32) as usize;
+                    if z < self.opaque[i] {
+                        self.opaque[i] = z;
                     }
                 }
             }
