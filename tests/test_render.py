@@ -372,3 +372,15 @@ def test_16_obj_mesh_is_lambertian_and_validated(tmp_path):
     d["meshes"][0]["file"] = "bad.obj"
     with pytest.raises(hs.SceneError, match=r"meshes\[0\].file: .*bad.obj:3: face indices out of range"):
         hs.Scene.from_dict(d, base_dir=str(tmp_path))
+
+
+def test_17_skipping_the_ms_block_at_zero_scatter_is_exact():
+    d = json.loads((EXAMPLES / "strand_head.json").read_text())
+    d["hair"]["generate"]["strands"] = 2000
+    d["hair"]["material"]["scatter"] = 0.0
+    s = hs.Scene.from_dict(d)
+    np.testing.assert_array_equal(hs.render(s, width=96, height=54), hs.render(s, width=96, height=54, skip_unused=False))
+    # With Scatter > 0 the MS block contributes and is kept.
+    d["hair"]["material"]["scatter"] = 0.5
+    s2 = hs.Scene.from_dict(d)
+    assert not np.array_equal(hs.render(s2, width=96, height=54), hs.render(s, width=96, height=54))

@@ -21,6 +21,7 @@ def render(
     layers: int | None = None,
     shading: str | None = None,
     opaque_culling: bool = True,
+    skip_unused: bool = True,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
@@ -31,7 +32,8 @@ def render(
     ("mlab" or "sorted"), ``layers`` and ``shading`` ("pixel" or "vertex")
     override the scene's render settings. ``opaque_culling`` skips hair
     behind a tile's farthest opaque surface (an exact skip: the image is
-    identical; off only to measure it).
+    identical; off only to measure it). ``skip_unused`` compiles out model
+    terms that cannot contribute (KarisHair's MS block at Scatter 0; exact).
     ``progress``: a progress bar on stderr (default: when stderr is a
     terminal). Ctrl-C stops the render (KeyboardInterrupt)."""
     cam = dict(scene.camera)
@@ -92,6 +94,7 @@ def render(
                 np.concatenate([m["triangles"].reshape(-1) for m in scene.obj_meshes]).astype(np.float32),
                 np.concatenate([np.tile(np.asarray(m["albedo"], np.float32), len(m["triangles"])) for m in scene.obj_meshes]),
             ),
+            skip_unused,
         )
     finally:
         if show:

@@ -284,6 +284,11 @@ impl<T: Real> KarisHair<T> {
         }
     }
 
+    /// Whether Scatter is 0 (the Kajiya-Kay term vanishes).
+    pub fn scatter_is_zero(&self) -> bool {
+        self.scatter == T::ZERO
+    }
+
     /// The lobes this model evaluates.
     pub fn components(&self) -> Components {
         self.components

@@ -162,12 +162,7 @@ fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
 
 /// Radiance shaded at every strand vertex (tangent: the central difference),
 /// for per-vertex shading.
-fn shade_vertices(
-    scene: &Scene,
-    env_model: Option<&crate::fiber::karis::KarisHair<f32>>,
-    shadows: &[Option<ShadowMap>],
-    eye: Vec3,
-) -> Vec<Vec3> {
+fn shade_vertices(scene: &Scene, shader: &Shader<'_>, eye: Vec3) -> Vec<Vec3> {
     let st = &scene.strands;
     let mut owner = vec![0usize; st.points.len()];
     for s in 0..st.strand_count() {
@@ -182,14 +177,10 @@ fn shade_vertices(
                 let s = owner[i];
                 let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
                 let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
-                let t = (b - a).normalize_or_zero();
                 let p = st.points[i];
-                shade_hair(
-                    scene,
-                    env_model,
-                    shadows,
+                shader.shade(
                     p,
-                    t,
+                    (b - a).normalize_or_zero(),
                     (eye - p).normalize_or_zero(),
                 )
             })
@@ -447,45 +438,77 @@ fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
     (cov > 0.0).then_some((cov, t))
 }
 
-/// Radiance scattered by hair at `p` with tangent `t` towards the eye.
-fn shade_hair(
-    scene: &Scene,
-    env_model: Option<&crate::fiber::karis::KarisHair<f32>>,
-    shadows: &[Option<ShadowMap>],
-    p: Vec3,
-    t: Vec3,
-    v: Vec3,
-) -> Vec3 {
-    let mut out = Vec3::ZERO;
-    for (light, sm) in scene.lights.iter().zip(shadows) {
-        let (l, e) = light.incident(p);
-        let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
-        if vis <= 0.0 {
-            continue;
-        }
-        let f = match &scene.hair {
-            HairShading::Karis(k) => {
-                let tr = Transmittance {
-                    shadow: vis,
-                    ..Default::default()
-                };
-                Vec3::from(k.eval(&l.to_array(), &v.to_array(), &t.to_array(), &tr))
+/// Everything hair shading needs, prepared once per render.
+struct Shader<'a> {
+    scene: &'a Scene,
+    /// The scene's model, with what it cannot use disabled (see [`Shader::new`]).
+    hair: HairShading,
+    /// The environment variant of a KarisHair model (when there is an environment).
+    env_model: Option<crate::fiber::karis::KarisHair<f32>>,
+    shadows: &'a [Option<ShadowMap>],
+}
+
+impl<'a> Shader<'a> {
+    /// With KarisHair and Scatter = 0, the MS block adds exactly 0 under the
+    /// renderer's default transmittance (global 1, local 0, visibility 1: it
+    /// rescales the single scattering by 1 and adds a Kajiya-Kay term scaled
+    /// by Scatter), so it is compiled out (`skip_unused`).
+    fn new(scene: &'a Scene, shadows: &'a [Option<ShadowMap>], skip_unused: bool) -> Self {
+        let hair = match &scene.hair {
+            HairShading::Karis(k) if skip_unused && k.scatter_is_zero() && k.components().ms => {
+                let mut c = k.components();
+                c.ms = false;
+                HairShading::Karis(k.with_components(c))
             }
-            HairShading::ChiangFar(c) => {
-                // Mitsuba's convention: wi towards the viewer (its offset h is
-                // the one averaged across the fiber's visible width), wo towards
-                // the light.
-                let (wi, wo) = fiber_frame(t, v, l);
-                Vec3::from(c.eval_far(&wi, &wo))
-            }
-            HairShading::DEon(d) => Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array())),
+            other => other.clone(),
         };
-        out += f * e * vis;
+        let env_model = match (&scene.environment, &hair) {
+            (Some(_), HairShading::Karis(k)) => Some(k.environment_variant()),
+            _ => None,
+        };
+        Self {
+            scene,
+            hair,
+            env_model,
+            shadows,
+        }
     }
-    if let (Some(env), Some(m)) = (&scene.environment, env_model) {
-        out += Vec3::from(m.dispatch(EnvOne { v, t, sh: &env.sh }));
+
+    /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
+    fn shade(&self, p: Vec3, t: Vec3, v: Vec3) -> Vec3 {
+        let mut out = Vec3::ZERO;
+        for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
+            let (l, e) = light.incident(p);
+            let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
+            if vis <= 0.0 {
+                continue;
+            }
+            let f = match &self.hair {
+                HairShading::Karis(k) => {
+                    let tr = Transmittance {
+                        shadow: vis,
+                        ..Default::default()
+                    };
+                    Vec3::from(k.eval(&l.to_array(), &v.to_array(), &t.to_array(), &tr))
+                }
+                HairShading::ChiangFar(c) => {
+                    // Mitsuba's convention: wi towards the viewer (its offset h is
+                    // the one averaged across the fiber's visible width), wo towards
+                    // the light.
+                    let (wi, wo) = fiber_frame(t, v, l);
+                    Vec3::from(c.eval_far(&wi, &wo))
+                }
+                HairShading::DEon(d) => {
+                    Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array()))
+                }
+            };
+            out += f * e * vis;
+        }
+        if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
+            out += Vec3::from(m.dispatch(EnvOne { v, t, sh: &env.sh }));
+        }
+        out
     }
-    out
 }
 
 struct EnvOne<'a> {
@@ -582,13 +605,10 @@ pub fn render_with_progress(
             .map(|l| ShadowMap::build(l, scene, &world, center, radius, opts))
             .collect()
     });
-    let env_model = match (&scene.environment, &scene.hair) {
-        (Some(_), HairShading::Karis(k)) => Some(k.environment_variant()),
-        _ => None,
-    };
+    let shader = Shader::new(scene, &shadows, opts.skip_unused);
     let vertex_colors = opts
         .vertex_shading
-        .then(|| shade_vertices(scene, env_model.as_ref(), &shadows, view.eye));
+        .then(|| shade_vertices(scene, &shader, view.eye));
     let segs = build_segments(scene, &view, vertex_colors.as_deref());
 
     let tiles_x = w.div_ceil(TILE);
@@ -643,7 +663,7 @@ pub fn render_with_progress(
                     opts,
                     view: &view,
                     shadows: &shadows,
-                    env_model: env_model.as_ref(),
+                    shader: &shader,
                     segs: &segs,
                     tris: &tris,
                     solids: &solids,
@@ -714,7 +734,7 @@ struct TileContext<'a> {
     opts: &'a RenderOptions,
     view: &'a View,
     shadows: &'a [Option<ShadowMap>],
-    env_model: Option<&'a crate::fiber::karis::KarisHair<f32>>,
+    shader: &'a Shader<'a>,
     segs: &'a [Segment],
     tris: &'a [CardTri],
     solids: &'a [SolidTri],
@@ -854,14 +874,8 @@ fn render_tile(
                 let c = if opts.vertex_shading {
                     s.ca + (s.cb - s.ca) * tw_
                 } else {
-                    shade_hair(
-                        scene,
-                        ctx.env_model,
-                        shadows,
-                        pw,
-                        tangent,
-                        (view.eye - pw).normalize_or_zero(),
-                    )
+                    ctx.shader
+                        .shade(pw, tangent, (view.eye - pw).normalize_or_zero())
                 };
                 let frag = Fragment {
                     depth,
@@ -916,7 +930,7 @@ fn render_tile(
                 }
                 let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
                 let view_dir = (view.eye - pw).normalize_or_zero();
-                let c = shade_hair(scene, ctx.env_model, shadows, pw, t.tangent, view_dir);
+                let c = ctx.shader.shade(pw, t.tangent, view_dir);
                 let frag = Fragment {
                     depth,
                     color: c * alpha,

@@ -184,6 +184,9 @@ pub struct RenderOptions {
     /// Skip hair behind a tile's farthest opaque surface (exact: such hair
     /// fails every pixel's depth test anyway).
     pub opaque_culling: bool,
+    /// Compile out model terms that cannot contribute (KarisHair's MS block
+    /// at Scatter 0); exact.
+    pub skip_unused: bool,
 }
 
 impl Default for RenderOptions {
@@ -197,6 +200,7 @@ impl Default for RenderOptions {
             background: Vec3::ZERO,
             vertex_shading: false,
             opaque_culling: true,
+            skip_unused: true,
         }
     }
 }
