@@ -21,13 +21,29 @@ use rayon::prelude::*;
 /// `eval`. Threads: `RAYON_NUM_THREADS` or the number of CPUs.
 pub fn pool() -> &'static rayon::ThreadPool {
     static POOL: std::sync::OnceLock<rayon::ThreadPool> = std::sync::OnceLock::new();
-    POOL.get_or_init(|| {
+    static SINGLE: std::sync::OnceLock<rayon::ThreadPool> = std::sync::OnceLock::new();
+    let build = |n: usize| {
         rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
             .thread_name(|i| format!("hairshade-{i}"))
             .start_handler(|_| clear_upper_simd_state())
             .build()
             .expect("cannot start the hairshade thread pool")
-    })
+    };
+    if SINGLE_THREADED.load(std::sync::atomic::Ordering::Relaxed) {
+        SINGLE.get_or_init(|| build(1))
+    } else {
+        // 0: RAYON_NUM_THREADS or the CPU count.
+        POOL.get_or_init(|| build(0))
+    }
+}
+
+static SINGLE_THREADED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Runs later batches on one thread (`true`) or on all (`false`); for
+/// measuring scaling. Results do not depend on it.
+pub fn set_single_threaded(on: bool) {
+    SINGLE_THREADED.store(on, std::sync::atomic::Ordering::Relaxed);
 }
 
 #[inline]
@@ -57,6 +73,13 @@ pub fn num_threads() -> usize {
 /// Pairs per parallel task: large enough to amortize scheduling, small
 /// enough to balance two to a few dozen threads.
 const CHUNK: usize = 4096;
+
+/// Pairs per task for a batch of `n`: at most [`CHUNK`], and small enough
+/// that every thread gets about four tasks (expensive models, such as
+/// far fields, come in small batches).
+fn chunk_for(n: usize) -> usize {
+    (n / (4 * pool().current_num_threads().max(1))).clamp(16, CHUNK)
+}
 
 #[inline(always)]
 fn load<T: Real>(a: &[T], i: usize) -> Option<Vec3<T>> {
@@ -113,11 +136,12 @@ where
 {
     assert!(out.len() % W == 0);
     pool().install(|| {
-        out.par_chunks_mut(W * CHUNK)
+        let chunk = chunk_for(out.len() / W);
+        out.par_chunks_mut(W * chunk)
             .enumerate()
-            .for_each(|(k, chunk)| {
-                let base = k * CHUNK;
-                for (j, o) in chunk.chunks_exact_mut(W).enumerate() {
+            .for_each(|(k, part)| {
+                let base = k * chunk;
+                for (j, o) in part.chunks_exact_mut(W).enumerate() {
                     o.copy_from_slice(&f(base + j));
                 }
             })
@@ -186,12 +210,13 @@ fn sample_chunks<T: Real, F>(
 ) where
     F: Fn(&Vec3<T>, T, [T; 2]) -> (Vec3<T>, [T; 3], T) + Sync,
 {
-    wo.par_chunks_mut(3 * CHUNK)
-        .zip(weight.par_chunks_mut(3 * CHUNK))
-        .zip(pdf.par_chunks_mut(CHUNK))
+    let chunk = chunk_for(pdf.len());
+    wo.par_chunks_mut(3 * chunk)
+        .zip(weight.par_chunks_mut(3 * chunk))
+        .zip(pdf.par_chunks_mut(chunk))
         .enumerate()
         .for_each(|(k, ((wo, weight), pdf))| {
-            let base = k * CHUNK;
+            let base = k * chunk;
             for j in 0..pdf.len() {
                 let i = base + j;
                 let (a, b, c) = (u1[i], u2[2 * i], u2[2 * i + 1]);

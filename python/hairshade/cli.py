@@ -1,7 +1,7 @@
 """The ``hairshade`` command line.
 
     hairshade validate   ChiangHair against Mitsuba 3: lobe tables, furnace, throughput
-    hairshade bench      BSDF throughput side by side with Mitsuba (CSV with --csv)
+    hairshade bench      BSDF run time against error beside Mitsuba (CSV, plot)
     hairshade tables     KarisHair error tables against DEonHair and ChiangHair (docs/)
     hairshade render     render a scene file with the rasterizer (EXR, optional PNG)
     hairshade compare    relMSE and FLIP of an image against a reference, side-by-side PNG
@@ -64,19 +64,21 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from . import validation
+    from . import benchmark
 
-    tp = validation.throughput(n=args.n, repeats=args.repeats, variant=args.variant)
-    base = tp["hairshade f32"]
-    print(f"BSDF eval throughput, {args.n} pairs, best of {args.repeats}:")
-    for k, v in tp.items():
-        print(f"  {k:26s} {v / 1e6:8.2f} M evals/s  ({v / base:5.2f} x hairshade f32)")
+    rows = benchmark.bsdf_runtime_vs_error(n=args.n, repeats=args.repeats, fast=args.fast, variant=args.variant,
+                                           progress_bar=not args.no_progress)
+    print(f"BSDF run time against error ({args.n} pairs, best of {args.repeats}; error: rel. L2 vs converged f64 reference)")
+    print(f"{'model':14s} {'variant':16s} {'prec':4s} {'threads':8s} {'M evals/s':>10s} {'rel L2 err':>11s}")
+    for r in rows:
+        print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['threads']:8s} "
+              f"{r['evals_per_s'] / 1e6:10.3f} {r['rel_l2_error']:11.3e}")
     if args.csv:
-        with open(args.csv, "w") as f:
-            f.write("implementation,evals_per_s,ratio_to_hairshade_f32\n")
-            for k, v in tp.items():
-                f.write(f"{k},{v:.6g},{v / base:.6g}\n")
+        benchmark.write_csv(rows, args.csv)
         print(f"wrote {args.csv}")
+    if args.plot:
+        benchmark.plot(rows, args.plot)
+        print(f"wrote {args.plot}")
     return 0
 
 
@@ -214,6 +216,9 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("--repeats", type=int, default=5)
     b.add_argument("--variant", default=None)
     b.add_argument("--csv", default=None, help="write the results as CSV")
+    b.add_argument("--plot", default=None, help="write the run time vs error plot (PNG)")
+    b.add_argument("--fast", action="store_true", help="skip the slow DEonHair rows")
+    b.add_argument("--no-progress", action="store_true")
     b.set_defaults(func=cmd_bench)
     t = sub.add_parser("tables", help="KarisHair error tables against DEonHair and ChiangHair")
     t.add_argument("--out", default="docs", help="output folder (default docs/)")

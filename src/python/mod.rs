@@ -1155,6 +1155,12 @@ fn num_threads() -> usize {
     crate::batch::num_threads()
 }
 
+/// Runs later evaluations and renders on one thread (True) or all (False).
+#[pyfunction]
+fn set_single_threaded(on: bool) {
+    crate::batch::set_single_threaded(on)
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyChiangHair>()?;
@@ -1169,6 +1175,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(i0e, m)?)?;
     m.add_function(wrap_pyfunction!(log_i0, m)?)?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(set_single_threaded, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,0 +1,159 @@
+"""Run time against error for the BSDF models (``hairshade bench``).
+
+Every row: a model variant, its precision and thread count, evaluations per
+second (best of ``repeats``, all rows measured in one run, interleaved per
+repeat), and its error: relative L2 over the error-table grid
+(:func:`hairshade.tables.grid`, brown hair, roughness 0.4) against the
+model's converged f64 reference:
+
+- KarisHair (all lobes and each lobe alone) against DEonHair converged
+  (the approximation error);
+- DEonHair with ``h_samples`` in {4, 8, 16, 32, 64} against its converged
+  quadrature;
+- ChiangHair near and far field against their own f64 evaluation (the f32
+  rounding; f64 rows have error 0 by definition);
+- Mitsuba's ``hair`` (``llvm_ad_rgb`` when available) against ChiangHair's
+  f64 near field with Mitsuba's I0 (float32 arithmetic; the exact-I0
+  difference is reported by ``hairshade validate``).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+from . import _native
+from ._progress import progress
+from .chiang import ChiangHair
+from .deon import DEonHair
+from .karis import KarisHair
+from .tables import COLORS, grid
+
+ROUGHNESS = 0.4
+
+
+def _rel_l2(a: np.ndarray, ref: np.ndarray) -> float:
+    den = np.sqrt((ref**2).sum())
+    return float(np.sqrt(((a - ref) ** 2).sum()) / den) if den > 0 else 0.0
+
+
+def _random_pairs(n: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(2, n, 3))
+    v /= np.linalg.norm(v, axis=2, keepdims=True)
+    return v[0], v[1]
+
+
+def bsdf_runtime_vs_error(n: int = 1 << 20, repeats: int = 3, fast: bool = False, variant: str | None = None,
+                          progress_bar: bool = True) -> list[dict[str, Any]]:
+    """Rows of (model, variant, precision, threads, evals_per_s, rel_l2_error)."""
+    L, V, T, _ = grid()
+    color = COLORS["brown"]
+    deon_ref = DEonHair(base_color=color, roughness=ROUGHNESS).eval_lobes(L, V, T)
+    deon_sum = deon_ref["R"] + deon_ref["TT"] + deon_ref["TRT"]
+    wi, wo = _random_pairs(n)
+    T1 = np.array([0.0, 1.0, 0.0])
+    n_slow = max(256, n >> 8)  # DEonHair is ~1000x slower: fewer pairs, same rate estimate
+    wi_s, wo_s = wi[:n_slow], wo[:n_slow]
+    cases: list[tuple[dict[str, Any], Callable[[], Any], int, float]] = []
+
+    def add(model: str, var: str, precision: str, fn: Callable[[], Any], count: int, err: float) -> None:
+        cases.append((dict(model=model, variant=var, precision=precision), fn, count, err))
+
+    for prec, dt in (("f32", np.float32), ("f64", np.float64)):
+        a, b, t = wi.astype(dt), wo.astype(dt), T1.astype(dt)
+        for lobes in (("R", "TT", "TRT"), ("R",), ("TT",), ("TRT",)):
+            k = KarisHair(base_color=color, roughness=ROUGHNESS, components=lobes)
+            ref = sum(deon_ref[x] for x in lobes)
+            err = _rel_l2(k.eval(L.astype(dt), V.astype(dt), T.astype(dt)).astype(np.float64), ref)
+            add("KarisHair", "+".join(lobes), prec, lambda k=k, a=a, b=b, t=t: k.eval(a, b, t), n, err)
+        kms = KarisHair(base_color=color, roughness=ROUGHNESS, scatter=0.3)
+        add("KarisHair", "R+TT+TRT+MS", prec, lambda k=kms, a=a, b=b, t=t: k.eval(a, b, t), n, float("nan"))
+        c = ChiangHair(longitudinal_roughness=0.3, azimuthal_roughness=0.3)
+        c_ref = c.eval(L, V)
+        add("ChiangHair", "near field", prec, lambda c=c, a=a, b=b: c.eval(a, b), n,
+            _rel_l2(c.eval(L.astype(dt), V.astype(dt)).astype(np.float64), c_ref))
+        cf_ref = c.eval_far(L, V)
+        m = max(256, n >> 6)
+        add("ChiangHair", "far field", prec, lambda c=c, a=a[:m], b=b[:m]: c.eval_far(a, b), m,
+            _rel_l2(c.eval_far(L.astype(dt), V.astype(dt)).astype(np.float64), cf_ref))
+    if not fast:
+        for hs_n in (4, 8, 16, 32, 64, None):
+            d = DEonHair(base_color=color, roughness=ROUGHNESS, h_samples=hs_n)
+            err = 0.0 if hs_n is None else _rel_l2(sum(d.eval_lobes(L, V, T).values()), deon_sum)
+            add("DEonHair", "converged" if hs_n is None else f"h_samples={hs_n}", "f64",
+                lambda d=d: d.eval(wi_s, wo_s, T1), n_slow, err)
+    try:
+        from .mitsuba import MitsubaHair
+
+        cm = ChiangHair(longitudinal_roughness=0.3, azimuthal_roughness=0.3, i0="mitsuba")
+        mh = MitsubaHair(cm, variant)
+        add("Mitsuba hair", mh.variant, "f32", lambda: mh.eval(wi, wo), n, _rel_l2(mh.eval(L, V), cm.eval(L, V)))
+    except ImportError:
+        pass
+
+    rows: list[dict[str, Any]] = []
+    for threads in ("all", "1"):
+        _native.set_single_threaded(threads == "1")
+        try:
+            for _, fn, _, _ in cases:  # warm-up
+                fn()
+            best = [np.inf] * len(cases)
+            for _ in progress(range(repeats), desc=f"bench ({threads} threads)", enabled=progress_bar):
+                for i, (_, fn, _, _) in enumerate(cases):
+                    t0 = time.perf_counter()
+                    fn()
+                    best[i] = min(best[i], time.perf_counter() - t0)
+        finally:
+            _native.set_single_threaded(False)
+        for (meta, _, count, err), t in zip(cases, best):
+            if meta["model"] == "Mitsuba hair" and threads == "1":
+                continue  # Mitsuba's own thread pool is not ours to limit
+            rows.append(dict(**meta, threads=threads if meta["model"] != "Mitsuba hair" else "mitsuba",
+                             evals_per_s=count / t, rel_l2_error=err))
+    return rows
+
+
+def pareto(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Rows not dominated in (speed up, error down), among those with an error."""
+    pts = [r for r in rows if np.isfinite(r["rel_l2_error"])]
+    return [r for r in pts if not any(
+        (o["evals_per_s"] >= r["evals_per_s"] and o["rel_l2_error"] <= r["rel_l2_error"])
+        and (o["evals_per_s"] > r["evals_per_s"] or o["rel_l2_error"] < r["rel_l2_error"]) for o in pts)]
+
+
+def write_csv(rows: list[dict[str, Any]], path: str) -> None:
+    keys = ["model", "variant", "precision", "threads", "evals_per_s", "rel_l2_error"]
+    with open(path, "w") as f:
+        f.write(",".join(keys) + "\n")
+        for r in rows:
+            f.write(",".join(str(r[k]) if not isinstance(r[k], float) else f"{r[k]:.6g}" for k in keys) + "\n")
+
+
+def plot(rows: list[dict[str, Any]], path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    floor = 1e-9  # errors of exactly 0 (f64 references) drawn at the floor
+    for r in rows:
+        if not np.isfinite(r["rel_l2_error"]):
+            continue
+        marker = "o" if r["threads"] == "all" else ("s" if r["threads"] == "1" else "^")
+        ax.scatter(r["evals_per_s"], max(r["rel_l2_error"], floor), marker=marker, s=25)
+        ax.annotate(f"{r['model']} {r['variant']} {r['precision']} ({r['threads']})", (r["evals_per_s"], max(r["rel_l2_error"], floor)),
+                    fontsize=6, xytext=(3, 2), textcoords="offset points")
+    front = sorted(pareto(rows), key=lambda r: r["evals_per_s"])
+    ax.plot([r["evals_per_s"] for r in front], [max(r["rel_l2_error"], floor) for r in front], "k--", lw=0.8, label="Pareto front")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("evaluations per second")
+    ax.set_ylabel("relative L2 error vs converged f64 reference")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
