@@ -130,8 +130,59 @@ plt.plot(np.rad2deg(phi), karis.eval(L, V, T)[:, 0], "--", label="KarisHair")
 plt.plot(np.rad2deg(phi), (cl["R"] + cl["TT"] + cl["TRT"])[:, 0], ":", label="ChiangHair far field (mapped)")
 plt.xlabel("φ (deg), θo = −θi"); plt.legend(fontsize=8);""")
 
-nb = nbf.v4.new_notebook()
-nb["cells"] = cells
-nb["metadata"]["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
-nbf.write(nb, "notebooks/lobes.ipynb")
-print("wrote notebooks/lobes.ipynb")
+def write(path, cells):
+    nb = nbf.v4.new_notebook()
+    nb["cells"] = cells
+    nb["metadata"]["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nbf.write(nb, path)
+    print(f"wrote {path}")
+
+
+write("notebooks/lobes.ipynb", cells)
+
+# -- run time against error ------------------------------------------------------
+cells = []
+md("""# Run time against error
+
+Each BSDF model's evaluation rate beside its error against its converged f64
+reference (`hairshade bench`; see `python/hairshade/benchmark.py` for what
+each error means). The full run is `hairshade bench --csv
+docs/bench_bsdf.csv --plot docs/bench_bsdf.png`; this notebook shows that
+committed result and re-measures a fast subset (small batches, no DEonHair
+sweep) so that it runs in the test suite in seconds. Rates from the fast run
+are noisier than the committed ones.""")
+code("""import csv, os
+import numpy as np
+import matplotlib.pyplot as plt
+from hairshade import benchmark
+
+path = os.path.join("..", "docs", "bench_bsdf.csv") if os.path.exists(os.path.join("..", "docs")) else "docs/bench_bsdf.csv"
+with open(path) as f:
+    full = [dict(r, evals_per_s=float(r["evals_per_s"]), rel_l2_error=float(r["rel_l2_error"])) for r in csv.DictReader(f)]
+print(f"{len(full)} rows from {path}")
+for r in full:
+    if r["threads"] in ("all", "mitsuba"):
+        print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['evals_per_s'] / 1e6:8.3f} M/s   err {r['rel_l2_error']:.2e}")""")
+md("## The Pareto front (committed full run)")
+code("""fig, ax = plt.subplots(figsize=(8, 5))
+floor = 1e-9
+for r in full:
+    if np.isfinite(r["rel_l2_error"]) and r["threads"] != "1":
+        ax.scatter(r["evals_per_s"], max(r["rel_l2_error"], floor), s=20)
+        ax.annotate(f"{r['model']} {r['variant']} {r['precision']}", (r["evals_per_s"], max(r["rel_l2_error"], floor)), fontsize=6)
+front = sorted(benchmark.pareto([r for r in full if r["threads"] != "1"]), key=lambda r: r["evals_per_s"])
+ax.plot([r["evals_per_s"] for r in front], [max(r["rel_l2_error"], floor) for r in front], "k--", lw=0.8)
+ax.set_xscale("log"); ax.set_yscale("log"); ax.set_xlabel("evaluations / s"); ax.set_ylabel("rel. L2 error");""")
+md("## Thread scaling (committed full run)")
+code("""by = {}
+for r in full:
+    by.setdefault((r["model"], r["variant"], r["precision"]), {})[r["threads"]] = r["evals_per_s"]
+for k, v in by.items():
+    if "all" in v and "1" in v:
+        print(f"{' '.join(k):40s} {v['all'] / v['1']:.2f}x on all threads")""")
+md("## A fast re-measurement")
+code("""rows = benchmark.bsdf_runtime_vs_error(n=1 << 14, repeats=1, fast=True, progress_bar=False)
+for r in rows:
+    if r["threads"] != "1":
+        print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['evals_per_s'] / 1e6:8.3f} M/s   err {r['rel_l2_error']:.2e}")""")
+write("notebooks/runtime_vs_error.ipynb", cells)
