@@ -357,17 +357,39 @@ fn build_card_tris(scene: &Scene, view: &View) -> Vec<CardTri> {
     out
 }
 
+/// Tiles covered by a screen triangle's bounding box, or None when off screen.
 fn tri_tile_range(p: &[[f32; 2]; 3], tiles_x: u32, tiles_y: u32) -> Option<(u32, u32, u32, u32)> {
-    let xs = p.map(|p| p[0]);
-    let ys = p.map(|p| p[1]);
-    let (x0, x1) = (
-        xs.iter().cloned().fold(f32::INFINITY, f32::min),
-        xs.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
-    );
-    let (y0, y1) = (
-        ys.iter().cloned().fold(f32::INFINITY, f32::min),
-        ys.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
-    );
+    let (xs, ys) = (p.map(|q| q[0]), p.map(|q| q[1]));
+    let x0 = xs[0].min(xs[1]).min(xs[2]);
+    let x1 = xs[0].max(xs[1]).max(xs[2]);
+    let y0 = ys[0].min(ys[1]).min(ys[2]);
+    let y1 = ys[0].max(ys[1]).max(ys[2]);
+    bbox_tiles(x0, x1, y0, y1, tiles_x, tiles_y)
+}
+
+/// Screen-space bounding box in tiles, or None when off screen.
+fn tile_range(s: &Segment, tiles_x: u32, tiles_y: u32) -> Option<(u32, u32, u32, u32)> {
+    let pad = 0.5 * s.wa.max(s.wb).max(1.0) + 1.0;
+    bbox_tiles(
+        s.a[0].min(s.b[0]) - pad,
+        s.a[0].max(s.b[0]) + pad,
+        s.a[1].min(s.b[1]) - pad,
+        s.a[1].max(s.b[1]) + pad,
+        tiles_x,
+        tiles_y,
+    )
+}
+
+/// Tiles `(x0, y0, x1, y1)` (inclusive) overlapped by a pixel bounding box,
+/// or None when it is off screen or not finite.
+fn bbox_tiles(
+    x0: f32,
+    x1: f32,
+    y0: f32,
+    y1: f32,
+    tiles_x: u32,
+    tiles_y: u32,
+) -> Option<(u32, u32, u32, u32)> {
     if !(x0.is_finite() && x1.is_finite() && y0.is_finite() && y1.is_finite()) {
         return None;
     }
@@ -382,26 +404,26 @@ fn tri_tile_range(p: &[[f32; 2]; 3], tiles_x: u32, tiles_y: u32) -> Option<(u32,
     Some((tx0, ty0, tx1.min(tiles_x - 1), ty1.min(tiles_y - 1)))
 }
 
-/// Screen-space bounding box in tiles, or None when off screen.
-fn tile_range(s: &Segment, tiles_x: u32, tiles_y: u32) -> Option<(u32, u32, u32, u32)> {
-    let pad = 0.5 * s.wa.max(s.wb).max(1.0) + 1.0;
-    let x0 = s.a[0].min(s.b[0]) - pad;
-    let x1 = s.a[0].max(s.b[0]) + pad;
-    let y0 = s.a[1].min(s.b[1]) - pad;
-    let y1 = s.a[1].max(s.b[1]) + pad;
-    if !(x0.is_finite() && x1.is_finite() && y0.is_finite() && y1.is_finite()) {
-        return None;
+/// Per tile, the indices of the primitives whose tile range covers it (in
+/// primitive order, so every tile sees its primitives in scene order).
+fn bin_to_tiles(
+    ranges: impl Iterator<Item = Option<(u32, u32, u32, u32)>>,
+    tiles_x: u32,
+    tiles_y: u32,
+) -> (Vec<Vec<u32>>, usize) {
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
+    let mut binned = 0;
+    for (i, r) in ranges.enumerate() {
+        if let Some((x0, y0, x1, y1)) = r {
+            binned += 1;
+            for ty in y0..=y1 {
+                for tx in x0..=x1 {
+                    bins[(ty * tiles_x + tx) as usize].push(i as u32);
+                }
+            }
+        }
     }
-    let w = (tiles_x * TILE) as f32;
-    let h = (tiles_y * TILE) as f32;
-    if x1 < 0.0 || y1 < 0.0 || x0 >= w || y0 >= h {
-        return None;
-    }
-    let tx0 = (x0.max(0.0) as u32) / TILE;
-    let ty0 = (y0.max(0.0) as u32) / TILE;
-    let tx1 = ((x1.min(w - 1.0)) as u32) / TILE;
-    let ty1 = ((y1.min(h - 1.0)) as u32) / TILE;
-    Some((tx0, ty0, tx1.min(tiles_x - 1), ty1.min(tiles_y - 1)))
+    (bins, binned)
 }
 
 /// Coverage of pixel center `p` by segment `s`, and the screen parameter t.
@@ -613,42 +635,25 @@ pub fn render_with_progress(
 
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
-    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
-    let mut visible = 0;
-    for (i, s) in segs.iter().enumerate() {
-        if let Some((x0, y0, x1, y1)) = tile_range(s, tiles_x, tiles_y) {
-            visible += 1;
-            for ty in y0..=y1 {
-                for tx in x0..=x1 {
-                    bins[(ty * tiles_x + tx) as usize].push(i as u32);
-                }
-            }
-        }
-    }
-
+    let (bins, visible) = bin_to_tiles(
+        segs.iter().map(|s| tile_range(s, tiles_x, tiles_y)),
+        tiles_x,
+        tiles_y,
+    );
     let tris = build_card_tris(scene, &view);
-    let mut tri_bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
-    for (i, t) in tris.iter().enumerate() {
-        if let Some((x0, y0, x1, y1)) = tri_tile_range(&t.p, tiles_x, tiles_y) {
-            for ty in y0..=y1 {
-                for tx in x0..=x1 {
-                    tri_bins[(ty * tiles_x + tx) as usize].push(i as u32);
-                }
-            }
-        }
-    }
-
+    let (tri_bins, _) = bin_to_tiles(
+        tris.iter().map(|t| tri_tile_range(&t.p, tiles_x, tiles_y)),
+        tiles_x,
+        tiles_y,
+    );
     let solids = build_solid_tris(scene, &view);
-    let mut solid_bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
-    for (i, t) in solids.iter().enumerate() {
-        if let Some((x0, y0, x1, y1)) = tri_tile_range(&t.p, tiles_x, tiles_y) {
-            for ty in y0..=y1 {
-                for tx in x0..=x1 {
-                    solid_bins[(ty * tiles_x + tx) as usize].push(i as u32);
-                }
-            }
-        }
-    }
+    let (solid_bins, _) = bin_to_tiles(
+        solids
+            .iter()
+            .map(|t| tri_tile_range(&t.p, tiles_x, tiles_y)),
+        tiles_x,
+        tiles_y,
+    );
 
     let results: Vec<(Vec<f32>, u64, u64, u64)> = pool().install(|| {
         bins.par_iter()
