@@ -62,5 +62,52 @@ fn bench_chiang(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_chiang);
+/// KarisHair f32, all lobes, batch of 2^16 pairs on every thread: the
+/// scalar kernel beside the vector kernel at each SIMD level.
+fn bench_karis(c: &mut Criterion) {
+    use hairshade::batch::{karis_eval_simd, par_map, KarisInputs};
+    use hairshade::fiber::karis::{KarisHair, KarisParams, Transmittance};
+    use hairshade::simd::Level;
+    let n = 1 << 16;
+    let flat = |d: Vec<[f64; 3]>| {
+        d.iter()
+            .flat_map(|v| v.map(|x| x as f32))
+            .collect::<Vec<f32>>()
+    };
+    let (l, v) = (flat(directions(n, 1)), flat(directions(n, 2)));
+    let t = [0.0f32, 1.0, 0.0];
+    let inp = KarisInputs {
+        l: &l,
+        v: &v,
+        t: &t,
+        shadow: &[1.0],
+        global_scattering: &[1.0; 3],
+        local_scattering: &[0.0; 3],
+        opaque_visibility: &[1.0],
+    };
+    let m: KarisHair<f32> = KarisParams::default().build().unwrap();
+    let mut out = vec![0.0f32; 3 * n];
+    let mut g = c.benchmark_group("karis");
+    g.throughput(Throughput::Elements(n as u64));
+    g.bench_function("scalar", |b| {
+        b.iter(|| {
+            par_map::<f32, 3, _>(&mut out, |i| {
+                let a = [l[3 * i], l[3 * i + 1], l[3 * i + 2]];
+                let o = [v[3 * i], v[3 * i + 1], v[3 * i + 2]];
+                m.eval(&a, &o, &t, &Transmittance::default())
+            })
+        })
+    });
+    for level in [Level::Portable, Level::Avx2, Level::Avx512] {
+        if level.min_with(Level::detect()) != level {
+            continue;
+        }
+        g.bench_function(level.name(), |b| {
+            b.iter(|| karis_eval_simd::<false>(&m, black_box(&inp), &mut out, level))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_chiang, bench_karis);
 criterion_main!(benches);

@@ -332,7 +332,65 @@ pub fn karis_eval<T: Real, const LOBES: bool>(
             }
         }
     }
+    if let Some((m32, inp32, out32)) = as_f32(m, inp, out) {
+        if !m32.fast_asin() {
+            return karis_eval_simd::<LOBES>(m32, &inp32, out32, crate::simd::Level::detect());
+        }
+    }
     m.dispatch(V::<T, LOBES>(inp, out));
+}
+
+/// The same batch seen as `f32` when `T` is `f32`.
+fn as_f32<'a, 'b, T: Real>(
+    m: &'a KarisHair<T>,
+    inp: &KarisInputs<'b, T>,
+    out: &'a mut [T],
+) -> Option<(&'a KarisHair<f32>, KarisInputs<'b, f32>, &'a mut [f32])> {
+    if std::any::TypeId::of::<T>() != std::any::TypeId::of::<f32>() {
+        return None;
+    }
+    // SAFETY: T is f32 (checked above), so these are casts to the same type.
+    let cast =
+        |a: &'b [T]| unsafe { std::slice::from_raw_parts(a.as_ptr() as *const f32, a.len()) };
+    let inp32 = KarisInputs {
+        l: cast(inp.l),
+        v: cast(inp.v),
+        t: cast(inp.t),
+        shadow: cast(inp.shadow),
+        global_scattering: cast(inp.global_scattering),
+        local_scattering: cast(inp.local_scattering),
+        opaque_visibility: cast(inp.opaque_visibility),
+    };
+    unsafe {
+        Some((
+            &*(m as *const KarisHair<T> as *const KarisHair<f32>),
+            inp32,
+            std::slice::from_raw_parts_mut(out.as_mut_ptr() as *mut f32, out.len()),
+        ))
+    }
+}
+
+/// [`karis_eval`] for `f32` on the vector kernel ([`crate::simd`]) at
+/// `level` (at most [`Level::detect`](crate::simd::Level::detect)'s; lower
+/// levels serve measurements), in parallel on [`pool`]. Models with
+/// `fast_asin` are evaluated as if it were off.
+pub fn karis_eval_simd<const LOBES: bool>(
+    m: &KarisHair<f32>,
+    inp: &KarisInputs<'_, f32>,
+    out: &mut [f32],
+    level: crate::simd::Level,
+) {
+    let w = if LOBES { 12 } else { 3 };
+    assert!(out.len() % w == 0);
+    let level = level.min_with(crate::simd::Level::detect());
+    pool().install(|| {
+        let chunk = chunk_for(out.len() / w).next_multiple_of(16);
+        out.par_chunks_mut(w * chunk)
+            .enumerate()
+            .for_each(|(k, part)| {
+                crate::fiber::karis::simd::eval_range::<LOBES>(m, inp, k * chunk, part, level)
+            })
+    });
 }
 
 /// Batched environment lighting of `m.environment_variant()` (out `3N`).

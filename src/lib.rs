@@ -15,6 +15,7 @@ pub mod image_io;
 pub mod lighting;
 pub mod math;
 pub mod raster;
+pub mod simd;
 
 #[cfg(feature = "python")]
 mod python;

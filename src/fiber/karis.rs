@@ -57,6 +57,8 @@ use crate::fiber::{param_error, ParamError};
 use crate::lighting::sh9_eval;
 use crate::math::Real;
 
+pub(crate) mod simd;
+
 /// Index of refraction fixed by the model (the η' fit is made for it).
 pub const KARIS_ETA: f64 = 1.55;
 
@@ -282,6 +284,11 @@ impl<T: Real> KarisHair<T> {
             absorption: p.absorption,
             fast_asin: p.fast_asin,
         }
+    }
+
+    /// Whether θd uses UE's `asinFast` (such models use the scalar kernel).
+    pub fn fast_asin(&self) -> bool {
+        self.fast_asin
     }
 
     /// Whether Scatter is 0 (the Kajiya-Kay term vanishes).
