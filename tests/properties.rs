@@ -165,6 +165,34 @@ proptest! {
 }
 
 proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+    /// 5. KarisHair::upper_bound (light culling's bound) is above every
+    ///    value the model takes, at shadow in [0, 1].
+    #[test]
+    fn p05_karis_upper_bound_holds(
+        l in direction(), v in direction(), t in direction(),
+        r in roughness(), scatter in 0.0f64..=1.0, shift in -0.25f64..=0.25,
+        color in [0.0f64..=1.0, 0.0f64..=1.0, 0.0f64..=1.0],
+        backlit in 0.0f64..=1.0, specular in 0.0f64..=1.0, area in 0.0f64..=1.0,
+        comps in 1u32..16, separable in any::<bool>(), shadow in 0.0f64..=1.0,
+    ) {
+        let (Some(l), Some(v), Some(t)) = (unit(l), unit(v), unit(t)) else { return Ok(()); };
+        let p = KarisParams {
+            base_color: color, roughness: r, scatter, shift, backlit, specular, area,
+            components: Components { r: comps & 1 != 0, tt: comps & 2 != 0, trt: comps & 4 != 0, ms: comps & 8 != 0 },
+            separable_r: separable,
+            ..Default::default()
+        };
+        let m = p.build::<f32>().unwrap();
+        let f = |w: [f64; 3]| w.map(|x| x as f32);
+        let e = m.eval(&f(l), &f(v), &f(t), &Transmittance { shadow: shadow as f32, ..Default::default() });
+        let bound = m.upper_bound();
+        prop_assert!(e.iter().all(|x| *x <= bound), "{e:?} > {bound}");
+    }
+}
+
+proptest! {
     #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
 
     /// 4. DEonHair converged (adaptive quadrature, ~1000x the cost): finite

@@ -384,3 +384,47 @@ def test_17_skipping_the_ms_block_at_zero_scatter_is_exact():
     d["hair"]["material"]["scatter"] = 0.5
     s2 = hs.Scene.from_dict(d)
     assert not np.array_equal(hs.render(s2, width=96, height=54), hs.render(s, width=96, height=54))
+
+
+def test_18_shadow_map_reuse_is_exact_and_keyed_on_what_the_map_depends_on():
+    d = json.loads((EXAMPLES / "strand_head.json").read_text())
+    d["hair"]["generate"]["strands"] = 1500
+    s = hs.Scene.from_dict(d)
+    fresh, st0 = hs.render(s, width=96, height=54, reuse_shadow_maps=False, return_stats=True)
+    hs.render(s, width=64, height=36)  # fills the cache (another resolution: same maps)
+    again, st1 = hs.render(s, width=96, height=54, return_stats=True)
+    np.testing.assert_array_equal(fresh, again)
+    assert st0["shadow_maps_reused"] == 0 and st1["shadow_maps_reused"] == 1
+    # A moved camera reuses the map; moved hair or a moved light does not.
+    d2 = json.loads(json.dumps(d))
+    d2["camera"]["position"][0] += 0.3
+    _, st2 = hs.render(hs.Scene.from_dict(d2), width=96, height=54, return_stats=True)
+    assert st2["shadow_maps_reused"] == 1
+    d3 = json.loads(json.dumps(d))
+    d3["lights"][0]["direction"][0] += 0.1
+    _, st3 = hs.render(hs.Scene.from_dict(d3), width=96, height=54, return_stats=True)
+    assert st3["shadow_maps_reused"] == 0
+    d4 = json.loads(json.dumps(d))
+    d4["hair"]["generate"]["strands"] = 1501
+    _, st4 = hs.render(hs.Scene.from_dict(d4), width=96, height=54, return_stats=True)
+    assert st4["shadow_maps_reused"] == 0
+
+
+def test_19_light_culling_stays_within_its_reported_bound():
+    """A dim point light far from the hair is skipped where its bounded
+    contribution is below the threshold; the image moves by at most the
+    threshold per culled light, and threshold 0 is bit-identical to no
+    culling (the bound is checked against the model in tests/properties.rs)."""
+    d = json.loads((EXAMPLES / "single_strand.json").read_text())
+    d["hair"]["material"] = {"model": "karis", "base_color": [0.3, 0.15, 0.08], "roughness": 0.4}
+    d["lights"].append({"type": "point", "position": [0.0, 0.0, 30.0], "intensity": [0.005, 0.005, 0.005], "shadows": False})
+    s = hs.Scene.from_dict(d)
+    exact, st0 = hs.render(s, light_cull_threshold=0.0, return_stats=True)
+    culled, st1 = hs.render(s, light_cull_threshold=1e-4, return_stats=True)
+    assert st0["lights_culled"] == 0 and st1["lights_culled"] > 0
+    assert 0 < st1["light_cull_max_skipped"] < 1e-4
+    err = np.abs(culled - exact).max()
+    assert err <= st1["light_cull_max_skipped"] * 1.0001, err
+    assert err > 0  # the skip does change pixels (within the bound)
+    with pytest.raises(ValueError, match="light_cull_threshold"):
+        hs.render(s, light_cull_threshold=-1.0)

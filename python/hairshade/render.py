@@ -22,6 +22,8 @@ def render(
     shading: str | None = None,
     opaque_culling: bool = True,
     skip_unused: bool = True,
+    reuse_shadow_maps: bool = True,
+    light_cull_threshold: float = 1e-4,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
@@ -34,6 +36,14 @@ def render(
     behind a tile's farthest opaque surface (an exact skip: the image is
     identical; off only to measure it). ``skip_unused`` compiles out model
     terms that cannot contribute (KarisHair's MS block at Scatter 0; exact).
+    ``reuse_shadow_maps`` takes the shadow maps of an earlier render in this
+    process when the geometry, the light and the shadow settings are the
+    same (a camera move; exact, the maps are deterministic; at most 4 maps,
+    32 MiB at the default size, are kept). ``light_cull_threshold``: with
+    KarisHair, a light whose irradiance times the model's upper bound is
+    below this radiance at a shading point is skipped there; a pixel changes
+    by at most threshold x lights (0 turns it off; the stats report the
+    number skipped and the largest skipped bound).
     ``progress``: a progress bar on stderr (default: when stderr is a
     terminal). Ctrl-C stops the render (KeyboardInterrupt)."""
     cam = dict(scene.camera)
@@ -57,6 +67,8 @@ def render(
         if not 1 <= int(layers) <= 64:
             raise ValueError(f"layers: must be in [1, 64], got {layers}")
         r["layers"] = int(layers)
+    if not (np.isfinite(light_cull_threshold) and light_cull_threshold >= 0):
+        raise ValueError(f"light_cull_threshold: must be finite and >= 0, got {light_cull_threshold}")
     show = sys.stderr.isatty() if progress is None else progress
     start = time.perf_counter()
 
@@ -95,6 +107,8 @@ def render(
                 np.concatenate([np.tile(np.asarray(m["albedo"], np.float32), len(m["triangles"])) for m in scene.obj_meshes]),
             ),
             skip_unused,
+            reuse_shadow_maps,
+            float(light_cull_threshold),
         )
     finally:
         if show:

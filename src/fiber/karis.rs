@@ -286,6 +286,42 @@ impl<T: Real> KarisHair<T> {
         }
     }
 
+    /// An upper bound of [`Self::eval`] over all directions under the
+    /// default transmittance (shadow in [0, 1]): the sum of each enabled
+    /// lobe's bound, `M_p ≤ 1/(√(2π) B)` (R: `cos(φ/2)` of N_p cancels the
+    /// separable width's), N_p's fit at its peak (TT `e^{−0.33}`, TRT
+    /// `e^{0.22}`), `F ≤ 1`, `(1−f)²f ≤ 4/27`, absorption ≤ 1, and the
+    /// Kajiya-Kay term `Scatter/π · max √C · max(1, C/Luma)`.
+    pub fn upper_bound(&self) -> f32 {
+        let c = self.components;
+        let to = |x: T| x.to_f64();
+        let inv = 1.0 / (2.0 * std::f64::consts::PI).sqrt();
+        let b = self.b.map(|b| to(b).max(crate::fiber::lobes::B_MIN));
+        let mut s = 0.0;
+        if c.r {
+            let width = if self.separable_r {
+                std::f64::consts::SQRT_2
+            } else {
+                1.0
+            };
+            s += inv / (width * b[0]) * 0.25 * to(self.specular2) * to(self.backlit).max(1.0);
+        }
+        if c.tt {
+            s += inv / b[1] * (-0.33f64).exp() * to(self.backlit);
+        }
+        if c.trt {
+            s += inv / b[2] * 0.22f64.exp() * 4.0 / 27.0;
+        }
+        if c.ms {
+            let kk = (0..3)
+                .map(|i| to(self.sqrt_color[i]) * to(self.color_over_luma[i]).max(1.0))
+                .fold(0.0, f64::max);
+            s += to(self.scatter) * std::f64::consts::FRAC_1_PI * kk;
+        }
+        // rounding margin of the f32 evaluation
+        (s * 1.001) as f32
+    }
+
     /// Whether θd uses UE's `asinFast` (such models use the scalar kernel).
     pub fn fast_asin(&self) -> bool {
         self.fast_asin

@@ -829,7 +829,7 @@ fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<crate::raster::scene::Ca
 /// given, is called with (tiles done, tiles total) about 10 times a second;
 /// Ctrl-C stops the render and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true, triangles=None, skip_unused=true))]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true, triangles=None, skip_unused=true, reuse_shadow_maps=true, light_cull_threshold=1e-4))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -854,6 +854,8 @@ fn render<'py>(
     opaque_culling: bool,
     triangles: Option<(PyReadonlyArray1<'py, f32>, PyReadonlyArray1<'py, f32>)>,
     skip_unused: bool,
+    reuse_shadow_maps: bool,
+    light_cull_threshold: f32,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     use crate::raster::scene::*;
     use glam::Vec3;
@@ -1006,6 +1008,8 @@ fn render<'py>(
         vertex_shading,
         opaque_culling,
         skip_unused,
+        reuse_shadow_maps,
+        light_cull_threshold,
     };
     let total = crate::raster::tile_count(&scene);
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
@@ -1044,6 +1048,13 @@ fn render<'py>(
     d.set_item("fragments", stats.fragments)?;
     d.set_item("non_finite_pixels", stats.non_finite_pixels)?;
     d.set_item("culled_behind_opaque", stats.culled_behind_opaque)?;
+    d.set_item("lights_culled", stats.lights_culled)?;
+    d.set_item("light_cull_max_skipped", stats.light_cull_max_skipped)?;
+    d.set_item("shadow_ms", stats.shadow_ms)?;
+    d.set_item("shadow_maps_reused", stats.shadow_maps_reused)?;
+    d.set_item("setup_ms", stats.setup_ms)?;
+    d.set_item("tiles_ms", stats.tiles_ms)?;
+    d.set_item("total_ms", stats.total_ms)?;
     Ok((PyArray1::from_vec(py, image.data), d))
 }
 

@@ -123,6 +123,20 @@ pub struct RenderStats {
     /// Segment or card-triangle visits skipped because the tile's opaque
     /// surface is in front of them everywhere.
     pub culled_behind_opaque: u64,
+    /// Light evaluations skipped by light culling, and the largest bound of
+    /// a skipped contribution (radiance; a pixel changes by at most this
+    /// times the number of lights).
+    pub lights_culled: u64,
+    pub light_cull_max_skipped: f32,
+    /// Shadow maps taken from an earlier render (see `reuse_shadow_maps`).
+    pub shadow_maps_reused: usize,
+    /// Wall time of the phases, in milliseconds: shadow maps, setup
+    /// (per-vertex shading when on, projection, binning), tiles
+    /// (rasterization, shading, resolve), and the whole render.
+    pub shadow_ms: f64,
+    pub setup_ms: f64,
+    pub tiles_ms: f64,
+    pub total_ms: f64,
 }
 
 /// The rendered image: linear radiance, row-major, RGB.
@@ -467,7 +481,15 @@ struct Shader<'a> {
     hair: HairShading,
     /// The environment variant of a KarisHair model (when there is an environment).
     env_model: Option<crate::fiber::karis::KarisHair<f32>>,
-    shadows: &'a [Option<ShadowMap>],
+    shadows: &'a [Option<std::sync::Arc<ShadowMap>>],
+    /// Upper bound of the hair BSDF's value over all directions (KarisHair;
+    /// `None`: no light culling).
+    f_max: Option<f32>,
+    /// Radiance below which a light's bounded contribution is skipped.
+    cull_threshold: f32,
+    /// Light evaluations skipped, and the largest skipped bound (f32 bits).
+    culled: std::sync::atomic::AtomicU64,
+    culled_max_bits: std::sync::atomic::AtomicU32,
 }
 
 impl<'a> Shader<'a> {
@@ -475,7 +497,19 @@ impl<'a> Shader<'a> {
     /// renderer's default transmittance (global 1, local 0, visibility 1: it
     /// rescales the single scattering by 1 and adds a Kajiya-Kay term scaled
     /// by Scatter), so it is compiled out (`skip_unused`).
-    fn new(scene: &'a Scene, shadows: &'a [Option<ShadowMap>], skip_unused: bool) -> Self {
+    ///
+    /// Light culling (`cull_threshold` > 0, KarisHair): a light whose
+    /// irradiance times the BSDF's upper bound is below the threshold at a
+    /// shading point is not evaluated there (nor its shadow map read). Each
+    /// skipped term is at most the threshold, so a pixel changes by at most
+    /// `threshold × lights` (its fragments' weights sum to ≤ 1); the largest
+    /// skipped bound is reported in the statistics.
+    fn new(
+        scene: &'a Scene,
+        shadows: &'a [Option<std::sync::Arc<ShadowMap>>],
+        skip_unused: bool,
+        cull_threshold: f32,
+    ) -> Self {
         let hair = match &scene.hair {
             HairShading::Karis(k) if skip_unused && k.scatter_is_zero() && k.components().ms => {
                 let mut c = k.components();
@@ -488,11 +522,19 @@ impl<'a> Shader<'a> {
             (Some(_), HairShading::Karis(k)) => Some(k.environment_variant()),
             _ => None,
         };
+        let f_max = match &hair {
+            HairShading::Karis(k) if cull_threshold > 0.0 => Some(k.upper_bound()),
+            _ => None,
+        };
         Self {
             scene,
             hair,
             env_model,
             shadows,
+            f_max,
+            cull_threshold,
+            culled: Default::default(),
+            culled_max_bits: Default::default(),
         }
     }
 
@@ -501,6 +543,17 @@ impl<'a> Shader<'a> {
         let mut out = Vec3::ZERO;
         for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
             let (l, e) = light.incident(p);
+            if let Some(f_max) = self.f_max {
+                let bound = f_max * e.max_element();
+                if bound < self.cull_threshold {
+                    use std::sync::atomic::Ordering::Relaxed;
+                    self.culled.fetch_add(1, Relaxed);
+                    // non-negative floats order as their bits
+                    self.culled_max_bits
+                        .fetch_max(bound.max(0.0).to_bits(), Relaxed);
+                    continue;
+                }
+            }
             let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
             if vis <= 0.0 {
                 continue;
@@ -562,7 +615,7 @@ fn fiber_frame(t: Vec3, a: Vec3, b: Vec3) -> ([f32; 3], [f32; 3]) {
 /// Diffuse radiance of an opaque surface point.
 fn shade_diffuse(
     scene: &Scene,
-    shadows: &[Option<ShadowMap>],
+    shadows: &[Option<std::sync::Arc<ShadowMap>>],
     p: Vec3,
     n: Vec3,
     albedo: Vec3,
@@ -613,6 +666,8 @@ pub fn render_with_progress(
     done: &AtomicUsize,
     cancel: &AtomicBool,
 ) -> Option<(Image, RenderStats)> {
+    let t0 = std::time::Instant::now();
+    let ms = |t: std::time::Instant| t.elapsed().as_secs_f64() * 1e3;
     let (center, radius) = scene_bounds(scene);
     let view = View::new(
         &scene.camera,
@@ -620,14 +675,33 @@ pub fn render_with_progress(
     );
     let (w, h) = (view.width, view.height);
     let world = segs_world(scene);
-    let shadows: Vec<Option<ShadowMap>> = pool().install(|| {
+    let geometry = if opts.reuse_shadow_maps {
+        shadow::geometry_hash(scene)
+    } else {
+        0
+    };
+    let built: Vec<(Option<std::sync::Arc<ShadowMap>>, bool)> = pool().install(|| {
         scene
             .lights
             .par_iter()
-            .map(|l| ShadowMap::build(l, scene, &world, center, radius, opts))
+            .map(|l| {
+                if opts.reuse_shadow_maps {
+                    ShadowMap::build_cached(l, scene, &world, center, radius, opts, geometry)
+                } else {
+                    (
+                        ShadowMap::build(l, scene, &world, center, radius, opts)
+                            .map(std::sync::Arc::new),
+                        false,
+                    )
+                }
+            })
             .collect()
     });
-    let shader = Shader::new(scene, &shadows, opts.skip_unused);
+    let shadow_maps_reused = built.iter().filter(|b| b.1).count();
+    let shadows: Vec<Option<std::sync::Arc<ShadowMap>>> = built.into_iter().map(|b| b.0).collect();
+    let shadow_ms = ms(t0);
+    let t1 = std::time::Instant::now();
+    let shader = Shader::new(scene, &shadows, opts.skip_unused, opts.light_cull_threshold);
     let vertex_colors = opts
         .vertex_shading
         .then(|| shade_vertices(scene, &shader, view.eye));
@@ -655,6 +729,8 @@ pub fn render_with_progress(
         tiles_y,
     );
 
+    let setup_ms = ms(t1);
+    let t2 = std::time::Instant::now();
     let results: Vec<(Vec<f32>, u64, u64, u64)> = pool().install(|| {
         bins.par_iter()
             .zip(tri_bins.par_iter())
@@ -688,6 +764,10 @@ pub fn render_with_progress(
     let mut stats = RenderStats {
         segments: segs.len(),
         segments_visible: visible,
+        shadow_ms,
+        shadow_maps_reused,
+        setup_ms,
+        tiles_ms: ms(t2),
         ..Default::default()
     };
     for (ti, (tile, frags, bad, culled)) in results.into_iter().enumerate() {
@@ -711,6 +791,9 @@ pub fn render_with_progress(
             }
         }
     }
+    stats.lights_culled = shader.culled.load(Ordering::Relaxed);
+    stats.light_cull_max_skipped = f32::from_bits(shader.culled_max_bits.load(Ordering::Relaxed));
+    stats.total_ms = ms(t0);
     Some((
         Image {
             width: w,
@@ -738,7 +821,7 @@ struct TileContext<'a> {
     scene: &'a Scene,
     opts: &'a RenderOptions,
     view: &'a View,
-    shadows: &'a [Option<ShadowMap>],
+    shadows: &'a [Option<std::sync::Arc<ShadowMap>>],
     shader: &'a Shader<'a>,
     segs: &'a [Segment],
     tris: &'a [CardTri],

@@ -187,6 +187,14 @@ pub struct RenderOptions {
     /// Compile out model terms that cannot contribute (KarisHair's MS block
     /// at Scatter 0); exact.
     pub skip_unused: bool,
+    /// Reuse the shadow maps of an earlier render when the geometry, the
+    /// light and the shadow settings are unchanged (exact: maps are
+    /// deterministic); see `shadow::CACHE_MAPS` for the memory held.
+    pub reuse_shadow_maps: bool,
+    /// Light culling: radiance below which a light's bounded contribution
+    /// (irradiance × the BSDF's upper bound) at a shading point is skipped
+    /// (KarisHair; 0 = off). Changes pixels by at most this × lights.
+    pub light_cull_threshold: f32,
 }
 
 impl Default for RenderOptions {
@@ -201,6 +209,8 @@ impl Default for RenderOptions {
             vertex_shading: false,
             opaque_culling: true,
             skip_unused: true,
+            reuse_shadow_maps: true,
+            light_cull_threshold: 1e-4,
         }
     }
 }
