@@ -1,7 +1,7 @@
 """The ``hairshade`` command line.
 
     hairshade validate   ChiangHair against Mitsuba 3: lobe tables, furnace, throughput
-    hairshade bench      BSDF run time against error beside Mitsuba (CSV, plot)
+    hairshade bench      run time against error beside Mitsuba: BSDFs, renders (CSV, plots)
     hairshade tables     KarisHair error tables against DEonHair and ChiangHair (docs/)
     hairshade render     render a scene file with the rasterizer (EXR, optional PNG)
     hairshade compare    relMSE and FLIP of an image against a reference, side-by-side PNG
@@ -64,21 +64,36 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from . import benchmark
+    from . import bench_render, benchmark
 
-    rows = benchmark.bsdf_runtime_vs_error(n=args.n, repeats=args.repeats, fast=args.fast, variant=args.variant,
-                                           progress_bar=not args.no_progress)
-    print(f"BSDF run time against error ({args.n} pairs, best of {args.repeats}; error: rel. L2 vs converged f64 reference)")
-    print(f"{'model':14s} {'variant':16s} {'prec':4s} {'threads':8s} {'M evals/s':>10s} {'rel L2 err':>11s}")
-    for r in rows:
-        print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['threads']:8s} "
-              f"{r['evals_per_s'] / 1e6:10.3f} {r['rel_l2_error']:11.3e}")
-    if args.csv:
-        benchmark.write_csv(rows, args.csv)
-        print(f"wrote {args.csv}")
-    if args.plot:
-        benchmark.plot(rows, args.plot)
-        print(f"wrote {args.plot}")
+    if args.out:
+        os.makedirs(args.out, exist_ok=True)
+        args.csv = args.csv or os.path.join(args.out, "bench_bsdf.csv")
+        args.plot = args.plot or os.path.join(args.out, "bench_bsdf.png")
+        args.render = True
+    if not args.render_only:
+        rows = benchmark.bsdf_runtime_vs_error(n=args.n, repeats=args.repeats, fast=args.fast, variant=args.variant,
+                                               progress_bar=not args.no_progress)
+        print(f"BSDF run time against error ({args.n} pairs, best of {args.repeats}; error: rel. L2 vs converged f64 reference)")
+        print(f"{'model':14s} {'variant':16s} {'prec':4s} {'threads':8s} {'M evals/s':>10s} {'rel L2 err':>11s}")
+        for r in rows:
+            print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['threads']:8s} "
+                  f"{r['evals_per_s'] / 1e6:10.3f} {r['rel_l2_error']:11.3e}")
+        if args.csv:
+            benchmark.write_csv(rows, args.csv)
+            print(f"wrote {args.csv}")
+        if args.plot:
+            benchmark.plot(rows, args.plot)
+            print(f"wrote {args.plot}")
+    if args.render or args.render_only:
+        rrows = bench_render.render_runtime_vs_error(fast=args.fast, repeats=min(args.repeats, 3),
+                                                     progress_bar=not args.no_progress)
+        print(bench_render.summary(rrows))
+        if args.out:
+            for ext, fn in (("csv", bench_render.write_csv), ("png", bench_render.plot)):
+                path = os.path.join(args.out, f"bench_render.{ext}")
+                fn(rrows, path)
+                print(f"wrote {path}")
     return 0
 
 
@@ -211,13 +226,16 @@ def main(argv: list[str] | None = None) -> int:
     v.add_argument("--variant", default=None, help="Mitsuba variant for the lobe comparison (default scalar_rgb; llvm_ad_rgb elsewhere when available)")
     v.add_argument("--no-progress", action="store_true", help="no progress bar")
     v.set_defaults(func=cmd_validate)
-    b = sub.add_parser("bench", help="BSDF throughput beside Mitsuba")
+    b = sub.add_parser("bench", help="run time against error beside Mitsuba (BSDFs; --render: renders)")
     b.add_argument("--n", type=int, default=1 << 20, help="direction pairs (default 2^20)")
     b.add_argument("--repeats", type=int, default=5)
     b.add_argument("--variant", default=None)
     b.add_argument("--csv", default=None, help="write the results as CSV")
     b.add_argument("--plot", default=None, help="write the run time vs error plot (PNG)")
-    b.add_argument("--fast", action="store_true", help="skip the slow DEonHair rows")
+    b.add_argument("--fast", action="store_true", help="skip the slow DEonHair rows; small renders")
+    b.add_argument("--render", action="store_true", help="also the rendering benchmark (frame times, Mitsuba spp sweep)")
+    b.add_argument("--render-only", action="store_true", help="only the rendering benchmark")
+    b.add_argument("--out", default=None, help="write every CSV and plot (BSDF and rendering) into this folder")
     b.add_argument("--no-progress", action="store_true")
     b.set_defaults(func=cmd_bench)
     t = sub.add_parser("tables", help="KarisHair error tables against DEonHair and ChiangHair")

@@ -398,7 +398,8 @@ def _clamped_controls(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray
 
 def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth: int = 64, width: int | None = None,
            height: int | None = None, variant: str | None = None, passes: int | None = None, seed: int = 0,
-           progress: bool | None = None, hair_params: dict[str, Any] | None = None, hair_bsdf: str = "chiang") -> np.ndarray:
+           progress: bool | None = None, hair_params: dict[str, Any] | None = None, hair_bsdf: str = "chiang",
+           timing: dict[str, float] | None = None) -> np.ndarray:
     """Reference render of ``scene`` by Mitsuba 3 -> (H, W, 3) float32.
 
     ``hair_bsdf``: "chiang" (Mitsuba's ``hair`` with the scene's ChiangHair,
@@ -406,7 +407,9 @@ def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth:
     itself through the ``hairshade_karis`` plugin; needs ``llvm_ad_rgb``).
     The samples are split into ``passes`` renders with different seeds
     (default: 8, or spp if fewer) so that a progress bar can be shown;
-    Ctrl-C stops between passes."""
+    Ctrl-C stops between passes. ``timing``, when given, receives
+    ``load_s`` (building and loading the scene) and ``render_s`` (rendering
+    and reading back the image), summed over the passes."""
     import sys
     import tempfile
     import time
@@ -425,7 +428,8 @@ def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth:
         dr.set_flag(dr.JitFlag.VCallRecord, False)
         dr.set_flag(dr.JitFlag.LoopRecord, False)
     try:
-        return _render_passes(scene, spp, integrator, max_depth, width, height, passes, seed, progress, hair_params, hair_bsdf)
+        return _render_passes(scene, spp, integrator, max_depth, width, height, passes, seed, progress, hair_params, hair_bsdf,
+                              timing if timing is not None else {})
     finally:
         if flags is not None:
             dr.set_flag(dr.JitFlag.VCallRecord, flags[0])
@@ -434,7 +438,7 @@ def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth:
 
 def _render_passes(scene: "Scene", spp: int, integrator: str, max_depth: int, width: int | None, height: int | None,
                    passes: int | None, seed: int, progress: bool | None, hair_params: dict[str, Any] | None,
-                   hair_bsdf: str) -> np.ndarray:
+                   hair_bsdf: str, timing: dict[str, float]) -> np.ndarray:
     import sys
     import tempfile
     import time
@@ -445,10 +449,15 @@ def _render_passes(scene: "Scene", spp: int, integrator: str, max_depth: int, wi
         per = [spp // passes + (1 if k < spp % passes else 0) for k in range(passes)]
         acc = None
         start = time.perf_counter()
+        timing.update(load_s=0.0, render_s=0.0)
         for k, n in enumerate(per):
+            t0 = time.perf_counter()
             d = scene_dict(scene, f"{tmp}/strands.txt", n, integrator, max_depth, width, height, hair_params, hair_bsdf)
             mscene = mi.load_dict(d)
+            t1 = time.perf_counter()
             img = np.array(mi.render(mscene, spp=n, seed=seed * 1000 + k), dtype=np.float64) * n
+            timing["load_s"] += t1 - t0
+            timing["render_s"] += time.perf_counter() - t1
             acc = img if acc is None else acc + img
             if show:
                 sys.stderr.write(f"\rmitsuba [{'#' * int(30 * (k + 1) / passes):30s}] pass {k + 1}/{passes} {time.perf_counter() - start:5.1f}s")

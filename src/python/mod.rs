@@ -1014,11 +1014,22 @@ fn render<'py>(
     let total = crate::raster::tile_count(&scene);
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
     let result = std::thread::scope(|s| -> PyResult<_> {
-        let handle = s.spawn(|| crate::raster::render_with_progress(&scene, &opts, &done, &cancel));
+        // The worker signals its end on a channel, so the wait returns as
+        // soon as the image is done (and every 50 ms for progress and Ctrl-C).
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let rx = std::sync::Mutex::new(rx);
+        let handle = s.spawn(|| {
+            let r = crate::raster::render_with_progress(&scene, &opts, &done, &cancel);
+            drop(tx);
+            r
+        });
         loop {
             let finished = without_gil(py, || {
-                std::thread::sleep(std::time::Duration::from_millis(50));
-                handle.is_finished()
+                let rx = rx.lock().unwrap_or_else(|e| e.into_inner());
+                matches!(
+                    rx.recv_timeout(std::time::Duration::from_millis(50)),
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) | Ok(())
+                )
             });
             if let Err(e) = py.check_signals() {
                 cancel.store(true, Ordering::Relaxed);

@@ -1,0 +1,294 @@
+"""Rendering run time against error (``hairshade bench --render``).
+
+Every number of one report is measured in one run (the machines are shared
+and noisy; compare ratios, not absolute times). Rows (CSV columns
+``section, scene, variant, width, height, threads, spp, ms, rel_mse``):
+
+- ``frame``: the rasterizer's ms/frame (best of ``repeats``) for each example
+  scene at 640x360, 1280x720 and 1920x1080, shadow maps built every frame
+  (``cold``) and reused from the previous frame (``warm``, a camera move).
+- ``error``: the rasterizer at the resolution of the scene's cached Mitsuba
+  reference (tests/data; same BSDF on both sides: ChiangHair's far field
+  against Mitsuba's ``hair``, or KarisHair against the ``hairshade_karis``
+  plugin; direct light with shadows), its time and relMSE there.
+- ``mitsuba``: Mitsuba rendering the same scene variant at 1, 4, 16, 64, 256
+  spp (seed 1, the reference used seed 0), time and relMSE against the
+  reference. The time is the render alone: JIT compilation (a warm-up
+  render first) and scene loading are not counted. The reference's own noise
+  sets a floor (tests/test_render.py).
+- ``equal_error``: Mitsuba's time at the rasterizer's error (log-log
+  interpolation between the two spp that bracket it) over the rasterizer's
+  time; ``variant`` says ``interpolated``, ``<=`` (1 spp already reaches it:
+  the ratio is an upper bound) or ``>=`` (256 spp do not: a lower bound).
+- ``strands``: the strand head with 1k to 100k strands (16 segments), 1280x720.
+- ``threads``: the strand head at 1280x720 on one thread and on all.
+- ``skip``: each skip on and off on the scene where it acts, with the
+  image difference (0 = bit-identical).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+from . import _native
+from ._progress import progress
+from .references import CASES, EXAMPLES, KARIS_CASES, comparison_scene, karis_reference_path, karis_scene, reference_path
+from .render import read_exr, rel_mse, render
+from .scene import Scene
+
+RESOLUTIONS = ((640, 360), (1280, 720), (1920, 1080))
+SPP = (1, 4, 16, 64, 256)
+STRANDS = (1000, 3000, 10000, 30000, 100000)
+KEYS = ["section", "scene", "variant", "width", "height", "threads", "spp", "ms", "rel_mse"]
+
+
+def _example(name: str) -> dict[str, Any]:
+    with open(os.path.join(EXAMPLES, f"{name}.json")) as f:
+        return json.load(f)
+
+
+def _scene(d: dict[str, Any]) -> Scene:
+    return Scene.from_dict(d, base_dir=os.path.abspath(EXAMPLES))
+
+
+def _best_ms(fn: Callable[[], Any], repeats: int) -> float:
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best * 1e3
+
+
+def _row(section: str, scene: str, variant: str = "", width: int = 0, height: int = 0, threads: str = "all",
+         spp: int = 0, ms: float = math.nan, rel: float = math.nan) -> dict[str, Any]:
+    return dict(section=section, scene=scene, variant=variant, width=width, height=height, threads=threads, spp=spp,
+                ms=ms, rel_mse=rel)
+
+
+def equal_error_ratio(raster_ms: float, raster_err: float, mitsuba: list[tuple[float, float]]) -> tuple[float, str]:
+    """(Mitsuba time at the rasterizer's error / rasterizer time, kind) from
+    Mitsuba's (ms, rel_mse) points in increasing spp."""
+    if not mitsuba:
+        return math.nan, "n/a"
+    if mitsuba[0][1] <= raster_err:
+        return mitsuba[0][0] / raster_ms, "<="
+    for (t0, e0), (t1, e1) in zip(mitsuba, mitsuba[1:]):
+        if e1 <= raster_err < e0:
+            f = (math.log(raster_err) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0))) / raster_ms, "interpolated"
+    return mitsuba[-1][0] / raster_ms, ">="
+
+
+def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str | None = None,
+                            progress_bar: bool = True) -> list[dict[str, Any]]:
+    """All rows (see the module doc). ``fast``: small resolutions and spp,
+    fewer strands (for the notebook and the tests)."""
+    data = data_dir or os.path.join(EXAMPLES, "..", "tests", "data")
+    rows: list[dict[str, Any]] = []
+    resolutions = ((160, 90), (320, 180)) if fast else RESOLUTIONS
+    spps = (1, 4) if fast else SPP
+    strands = (300, 1000, 3000) if fast else STRANDS
+    head_strands = 3000 if fast else None
+    steps = ["frame", "error", "strands", "threads", "skip"]
+    bar = progress(steps, desc="render bench", enabled=progress_bar)
+
+    def head(n: int | None = None) -> dict[str, Any]:
+        d = _example("strand_head")
+        if n is not None:
+            d["hair"]["generate"]["strands"] = n
+        return d
+
+    for step in bar:
+        if step == "frame":
+            for name in ("single_strand", "backlit_bundle", "strand_head", "card_head"):
+                d = head(head_strands) if name == "strand_head" else _example(name)
+                s = _scene(d)
+                for w, h in resolutions:
+                    cold = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+                    warm = _best_ms(lambda: render(s, w, h, progress=False), repeats)
+                    rows.append(_row("frame", name, "cold", w, h, ms=cold))
+                    rows.append(_row("frame", name, "warm", w, h, ms=warm))
+        elif step == "error":
+            cases = [(n, c, comparison_scene(n), reference_path(n, data), "chiang") for n, c in CASES.items()]
+            cases += [(n, c, karis_scene(n), karis_reference_path(n, data), "karis") for n, c in KARIS_CASES.items()
+                      if n == "card_head"]
+            for name, c, s, ref_path, bsdf in cases:
+                if not os.path.exists(ref_path):
+                    continue
+                ref = read_exr(ref_path)
+                w, h = (c["width"], c["height"]) if not fast else (c["width"] // 2, c["height"] // 2)
+                if fast:
+                    ref = ref.reshape(h, 2, w, 2, 3).mean(axis=(1, 3))
+                img = render(s, w, h, progress=False)
+                t = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+                e = rel_mse(img, ref)
+                rows.append(_row("error", name, f"rasterizer ({bsdf})", w, h, ms=t, rel=e))
+                pts = []
+                try:
+                    from . import mitsuba as hm
+
+                    # warm-up: JIT compilation of the kernels is not counted
+                    hm.render(s, spp=1, integrator="direct", width=w, height=h, seed=2, passes=1, progress=False,
+                              hair_bsdf=bsdf)
+                    for spp in spps:
+                        if bsdf == "karis" and spp > 64:
+                            continue  # the Python BSDF plugin is slow: 64 spp is enough to bracket
+                        timing: dict[str, float] = {}
+                        m = hm.render(s, spp=spp, integrator="direct", width=w, height=h, seed=1, passes=1,
+                                      progress=False, hair_bsdf=bsdf, timing=timing)
+                        tm = timing["render_s"] * 1e3  # scene loading not counted
+                        em = rel_mse(m, ref)
+                        pts.append((tm, em))
+                        rows.append(_row("mitsuba", name, f"mitsuba ({bsdf})", w, h, "mitsuba", spp, tm, em))
+                except (ImportError, ValueError):
+                    pass  # no Mitsuba, or no JIT variant for the KarisHair plugin
+                ratio, kind = equal_error_ratio(t, e, pts)
+                rows.append(_row("equal_error", name, kind, w, h, ms=ratio, rel=e))
+        elif step == "strands":
+            for n in strands:
+                s = _scene(head(n))
+                w, h = (320, 180) if fast else (1280, 720)
+                t = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+                rows.append(_row("strands", "strand_head", f"{n} strands", w, h, ms=t))
+        elif step == "threads":
+            s = _scene(head(head_strands))
+            w, h = (320, 180) if fast else (1280, 720)
+            for threads in ("1", "all"):
+                _native.set_single_threaded(threads == "1")
+                try:
+                    t = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+                finally:
+                    _native.set_single_threaded(False)
+                rows.append(_row("threads", "strand_head", "", w, h, threads, ms=t))
+        elif step == "skip":
+            rows += _skips(fast, repeats, head(head_strands))
+    return rows
+
+
+def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any]]:
+    """Each skip on and off: (ms on, ms off, max |difference|)."""
+    w, h = (320, 180) if fast else (1280, 720)
+    out = []
+    s = _scene(head)
+    lit = copy.deepcopy(head)
+    # A scene where light culling acts: the head's lights plus four dim
+    # point lights far away (fill lights whose bound falls below 1e-4).
+    for k in range(4):
+        a = 2 * math.pi * k / 4
+        lit["lights"].append({"type": "point", "position": [30 * math.cos(a), 5.0, 30 * math.sin(a)],
+                              "intensity": [0.01, 0.01, 0.01], "shadows": False})
+    s_lit = _scene(lit)
+    scattered = copy.deepcopy(head)
+    scattered["hair"]["material"]["scatter"] = 0.0
+    s_scatter0 = _scene(scattered)
+    cases = [
+        ("skip_unused (MS block at Scatter 0)", s_scatter0, dict(skip_unused=True), dict(skip_unused=False)),
+        ("opaque_culling (hair behind the head)", s, dict(opaque_culling=True), dict(opaque_culling=False)),
+        ("reuse_shadow_maps (camera moved)", s, dict(reuse_shadow_maps=True), dict(reuse_shadow_maps=False)),
+        ("light culling (4 dim far point lights)", s_lit, dict(light_cull_threshold=1e-4),
+         dict(light_cull_threshold=0.0)),
+    ]
+    for label, scene, on, off in cases:
+        if "reuse_shadow_maps" not in on:
+            on, off = dict(on, reuse_shadow_maps=False), dict(off, reuse_shadow_maps=False)
+        a = render(scene, w, h, progress=False, **on)
+        b = render(scene, w, h, progress=False, **off)
+        diff = float(np.abs(a - b).max())
+        t_on = _best_ms(lambda: render(scene, w, h, progress=False, **on), repeats)
+        t_off = _best_ms(lambda: render(scene, w, h, progress=False, **off), repeats)
+        out.append(_row("skip", "strand_head", f"{label} on", w, h, ms=t_on, rel=diff))
+        out.append(_row("skip", "strand_head", f"{label} off", w, h, ms=t_off, rel=diff))
+    return out
+
+
+def summary(rows: list[dict[str, Any]]) -> str:
+    """The report as text (what ``hairshade bench --render`` prints)."""
+    out = ["Rasterizer ms/frame (best of the repeats; cold: shadow maps built, warm: reused)"]
+    for r in rows:
+        if r["section"] == "frame":
+            out.append(f"  {r['scene']:15s} {r['width']:5d}x{r['height']:<5d} {r['variant']:5s} {r['ms']:9.1f} ms")
+    out.append("Error against the converged Mitsuba reference (same BSDF), at its resolution")
+    for r in rows:
+        if r["section"] in ("error", "mitsuba"):
+            spp = f"{r['spp']:4d} spp" if r["section"] == "mitsuba" else "        "
+            out.append(f"  {r['scene']:15s} {r['variant']:22s} {spp} {r['ms']:10.1f} ms  relMSE {r['rel_mse']:.3e}")
+        if r["section"] == "equal_error":
+            out.append(f"  {r['scene']:15s} Mitsuba time at equal error / rasterizer time: {r['variant']} {r['ms']:.3g}x")
+    out.append("Scaling")
+    for r in rows:
+        if r["section"] == "strands":
+            out.append(f"  {r['variant']:15s} {r['width']}x{r['height']} {r['ms']:9.1f} ms")
+        if r["section"] == "threads":
+            out.append(f"  threads {r['threads']:6s} {r['width']}x{r['height']} {r['ms']:9.1f} ms")
+    out.append("Skips (on / off, image max |difference|)")
+    sk = [r for r in rows if r["section"] == "skip"]
+    for on, off in zip(sk[::2], sk[1::2]):
+        name = on["variant"][:-3]
+        out.append(f"  {name:42s} {on['ms']:8.1f} / {off['ms']:8.1f} ms  x{off['ms'] / on['ms']:.2f}  diff {on['rel_mse']:.2e}")
+    return "\n".join(out)
+
+
+def write_csv(rows: list[dict[str, Any]], path: str) -> None:
+    with open(path, "w") as f:
+        f.write(",".join(KEYS) + "\n")
+        for r in rows:
+            f.write(",".join(f'"{r[k]}"' if k == "variant" else (f"{r[k]:.6g}" if isinstance(r[k], float) else str(r[k]))
+                             for k in KEYS) + "\n")
+
+
+def read_csv(path: str) -> list[dict[str, Any]]:
+    import csv
+
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        for k in ("width", "height", "spp"):
+            r[k] = int(r[k])
+        for k in ("ms", "rel_mse"):
+            r[k] = float(r[k])
+    return rows
+
+
+def plot(rows: list[dict[str, Any]], path: str) -> None:
+    """Left: time against error per scene (Mitsuba's spp sweep as a line,
+    the rasterizer as a star). Right: ms/frame against strand count."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.5))
+    scenes = sorted({r["scene"] for r in rows if r["section"] in ("error", "mitsuba")})
+    for k, name in enumerate(scenes):
+        color = f"C{k}"
+        m = [r for r in rows if r["section"] == "mitsuba" and r["scene"] == name]
+        if m:
+            ax.plot([r["ms"] for r in m], [r["rel_mse"] for r in m], "o-", color=color, ms=3, label=f"Mitsuba {name}")
+            for r in m:
+                ax.annotate(f"{r['spp']}", (r["ms"], r["rel_mse"]), fontsize=6, xytext=(2, 2), textcoords="offset points")
+        for r in rows:
+            if r["section"] == "error" and r["scene"] == name:
+                ax.plot(r["ms"], r["rel_mse"], "*", color=color, ms=12, label=f"rasterizer {name}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("ms per frame (reference resolution)")
+    ax.set_ylabel("relMSE vs converged Mitsuba (same BSDF)")
+    ax.legend(fontsize=6)
+    s = [r for r in rows if r["section"] == "strands"]
+    if s:
+        bx.plot([int(r["variant"].split()[0]) for r in s], [r["ms"] for r in s], "o-")
+        bx.set_xscale("log")
+        bx.set_yscale("log")
+        bx.set_xlabel(f"strands (16 segments), {s[0]['width']}x{s[0]['height']}")
+        bx.set_ylabel("ms per frame")
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
