@@ -184,19 +184,21 @@ fn shade_vertices(scene: &Scene, shader: &Shader<'_>, eye: Vec3) -> Vec<Vec3> {
             *o = s;
         }
     }
+    let tangent = |i: usize| {
+        let s = owner[i];
+        let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+        let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
+        (b - a).normalize_or_zero()
+    };
+    if let Some(out) = shader.shade_batch(&st.points, &tangent, eye) {
+        return out;
+    }
     pool().install(|| {
         (0..st.points.len())
             .into_par_iter()
             .map(|i| {
-                let s = owner[i];
-                let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
-                let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
                 let p = st.points[i];
-                shader.shade(
-                    p,
-                    (b - a).normalize_or_zero(),
-                    (eye - p).normalize_or_zero(),
-                )
+                shader.shade(p, tangent(i), (eye - p).normalize_or_zero())
             })
             .collect()
     })
@@ -536,6 +538,110 @@ impl<'a> Shader<'a> {
             culled: Default::default(),
             culled_max_bits: Default::default(),
         }
+    }
+
+    /// [`Self::shade`] for many points at once, for KarisHair: per light,
+    /// the directions, irradiance and shadow-map visibility per point, then
+    /// one call of the vector kernel over all points (`None` for other
+    /// models). Equal to `shade` up to the vector kernel's rounding.
+    fn shade_batch(
+        &self,
+        points: &[Vec3],
+        tangent: &(dyn Fn(usize) -> Vec3 + Sync),
+        eye: Vec3,
+    ) -> Option<Vec<Vec3>> {
+        use crate::batch::{karis_eval_simd, KarisInputs};
+        let HairShading::Karis(k) = &self.hair else {
+            return None;
+        };
+        if k.fast_asin() {
+            return None;
+        }
+        let n = points.len();
+        let level = crate::simd::Level::detect();
+        let flat = |f: &(dyn Fn(usize) -> Vec3 + Sync)| -> Vec<f32> {
+            pool().install(|| {
+                (0..n)
+                    .into_par_iter()
+                    .flat_map_iter(|i| f(i).to_array())
+                    .collect()
+            })
+        };
+        let t = flat(tangent);
+        let v = flat(&|i| (eye - points[i]).normalize_or_zero());
+        let mut out = vec![Vec3::ZERO; n];
+        let mut f = vec![0.0f32; 3 * n];
+        for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
+            // per point: direction, irradiance, visibility (0 where culled)
+            let per: Vec<(Vec3, Vec3, f32)> = pool().install(|| {
+                (0..n)
+                    .into_par_iter()
+                    .map(|i| {
+                        let (l, e) = light.incident(points[i]);
+                        if let Some(f_max) = self.f_max {
+                            let bound = f_max * e.max_element();
+                            if bound < self.cull_threshold {
+                                use std::sync::atomic::Ordering::Relaxed;
+                                self.culled.fetch_add(1, Relaxed);
+                                self.culled_max_bits
+                                    .fetch_max(bound.max(0.0).to_bits(), Relaxed);
+                                return (l, Vec3::ZERO, 0.0);
+                            }
+                        }
+                        let vis = sm.as_ref().map_or(1.0, |m| m.visibility(points[i]));
+                        (l, e, vis)
+                    })
+                    .collect()
+            });
+            let l: Vec<f32> = per.iter().flat_map(|p| p.0.to_array()).collect();
+            let shadow: Vec<f32> = per.iter().map(|p| p.2).collect();
+            let inp = KarisInputs {
+                l: &l,
+                v: &v,
+                t: &t,
+                shadow: &shadow,
+                global_scattering: &[1.0; 3],
+                local_scattering: &[0.0; 3],
+                opaque_visibility: &[1.0],
+            };
+            karis_eval_simd::<false>(k, &inp, &mut f, level);
+            for (i, (o, p)) in out.iter_mut().zip(&per).enumerate() {
+                if p.2 > 0.0 {
+                    *o += Vec3::new(f[3 * i], f[3 * i + 1], f[3 * i + 2]) * p.1 * p.2;
+                }
+            }
+        }
+        if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
+            // L = the fake normal n = normalize(V − T(T·V)); π · SH(n)⁺ · f
+            let (ln, rad): (Vec<Vec3>, Vec<Vec3>) = pool().install(|| {
+                (0..n)
+                    .into_par_iter()
+                    .map(|i| {
+                        let (vi, ti) =
+                            (Vec3::from_slice(&v[3 * i..]), Vec3::from_slice(&t[3 * i..]));
+                        let nn = (vi - ti * ti.dot(vi)).normalize_or_zero();
+                        let r = Vec3::from(sh9_eval(&env.sh, &nn.to_array())).max(Vec3::ZERO);
+                        (nn, r)
+                    })
+                    .unzip()
+            });
+            let ln: Vec<f32> = ln.iter().flat_map(|x| x.to_array()).collect();
+            let inp = KarisInputs {
+                l: &ln,
+                v: &v,
+                t: &t,
+                shadow: &[1.0],
+                global_scattering: &[1.0; 3],
+                local_scattering: &[0.0; 3],
+                opaque_visibility: &[1.0],
+            };
+            karis_eval_simd::<false>(m, &inp, &mut f, level);
+            for (i, o) in out.iter_mut().enumerate() {
+                *o +=
+                    Vec3::new(f[3 * i], f[3 * i + 1], f[3 * i + 2]) * rad[i] * std::f32::consts::PI;
+            }
+        }
+        Some(out)
     }
 
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
@@ -1071,5 +1177,115 @@ pub fn ray_sphere(o: Vec3, d: Vec3, c: Vec3, r: f32) -> Option<f32> {
         None // camera inside the sphere: its inside is not drawn
     } else {
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::scene::{Camera, Cards, Environment, Light, Strands};
+    use super::*;
+    use crate::fiber::karis::KarisParams;
+
+    /// 1. Per-vertex shading on the vector kernel (one batch per light and
+    ///    one for the environment) against the per-point scalar path, with
+    ///    a shadowed directional light, a point light, an SH environment and
+    ///    the MS block on: equal to 1e-4 relative + 1e-7 absolute (the
+    ///    vector kernel's rounding; `fiber::karis::simd` test 1 bounds it
+    ///    against f64).
+    #[test]
+    fn t01_batched_vertex_shading_matches_per_point_shading() {
+        let mut points = Vec::new();
+        let mut offsets = vec![0u32];
+        for s in 0..40 {
+            let a = s as f32 * 0.37;
+            for k in 0..12 {
+                let y = k as f32 * 0.08;
+                points.push(Vec3::new(
+                    a.cos() * (0.3 + 0.02 * k as f32),
+                    y,
+                    a.sin() * 0.3 + 0.01 * y * y,
+                ));
+            }
+            offsets.push(points.len() as u32);
+        }
+        let mut sh = [[0.0f32; 3]; 9];
+        sh[0] = [0.8, 0.8, 0.9];
+        sh[2] = [0.3, 0.2, 0.1];
+        sh[5] = [-0.2, 0.1, 0.0];
+        let scene = Scene {
+            camera: Camera {
+                position: Vec3::new(0.0, 0.5, 3.0),
+                target: Vec3::new(0.0, 0.5, 0.0),
+                up: Vec3::Y,
+                fov_y: 40.0,
+                width: 64,
+                height: 64,
+            },
+            lights: vec![
+                Light::Directional {
+                    direction: Vec3::new(0.5, 0.7, 0.5).normalize(),
+                    intensity: Vec3::splat(3.0),
+                    shadows: true,
+                },
+                Light::Point {
+                    position: Vec3::new(-1.0, 1.0, 1.0),
+                    intensity: Vec3::new(2.0, 1.5, 1.0),
+                    shadows: false,
+                },
+            ],
+            environment: Some(Environment { sh }),
+            strands: Strands {
+                radii: vec![0.004; points.len()],
+                points,
+                offsets,
+            },
+            cards: Cards::default(),
+            spheres: Vec::new(),
+            triangles: Vec::new(),
+            hair: HairShading::Karis(
+                KarisParams {
+                    scatter: 0.4,
+                    ..Default::default()
+                }
+                .build()
+                .unwrap(),
+            ),
+        };
+        let opts = RenderOptions::default();
+        let (center, radius) = scene_bounds(&scene);
+        let world = segs_world(&scene);
+        let shadows: Vec<_> = scene
+            .lights
+            .iter()
+            .map(|l| {
+                ShadowMap::build(l, &scene, &world, center, radius, &opts).map(std::sync::Arc::new)
+            })
+            .collect();
+        let shader = Shader::new(&scene, &shadows, true, 0.0);
+        let eye = scene.camera.position;
+        let batched = shade_vertices(&scene, &shader, eye);
+        let st = &scene.strands;
+        let mut shadowed = 0;
+        for s in 0..st.strand_count() {
+            let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+            for i in i0..i1 {
+                let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
+                let p = st.points[i];
+                let want = shader.shade(
+                    p,
+                    (b - a).normalize_or_zero(),
+                    (eye - p).normalize_or_zero(),
+                );
+                let got = batched[i];
+                for c in 0..3 {
+                    assert!(
+                        (got[c] - want[c]).abs() <= 1e-4 * want[c].abs() + 1e-7,
+                        "vertex {i} channel {c}: {got} vs {want}"
+                    );
+                }
+                shadowed += (shadows[0].as_ref().unwrap().visibility(p) < 1.0) as usize;
+            }
+        }
+        assert!(shadowed > 0, "the test should exercise shadowed vertices");
     }
 }

@@ -14,6 +14,7 @@
 use super::scene::{Light, RenderOptions, Scene};
 use super::{ray_sphere, Tri2};
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// A built shadow map.
 #[derive(Debug, Clone)]
@@ -191,7 +192,34 @@ impl ShadowMap {
         self.scale
     }
 
+    /// First-hair depth of the strands, drawn in parallel: up to 8 chunks
+    /// of segments each draw into their own buffer, merged by `min`
+    /// (order-independent, so the map does not depend on the thread count).
     fn draw_hair(&mut self, segments: &[(Vec3, Vec3, f32, f32)]) {
+        let parts = crate::batch::num_threads().clamp(1, 8);
+        let per = segments.len().div_ceil(parts).max(1);
+        let texels = self.hair.len();
+        let this = &*self;
+        let bufs: Vec<Vec<f32>> = crate::batch::pool().install(|| {
+            segments
+                .par_chunks(per)
+                .map(|part| {
+                    let mut buf = vec![f32::INFINITY; texels];
+                    this.draw_hair_into(part, &mut buf);
+                    buf
+                })
+                .collect()
+        });
+        for buf in bufs {
+            for (h, z) in self.hair.iter_mut().zip(buf) {
+                if z < *h {
+                    *h = z;
+                }
+            }
+        }
+    }
+
+    fn draw_hair_into(&self, segments: &[(Vec3, Vec3, f32, f32)], hair: &mut [f32]) {
         let n = self.size as f32;
         for &(a, b, ra, rb) in segments {
             let (Some(pa), Some(pb)) = (self.proj.map(a), self.proj.map(b)) else {
@@ -229,8 +257,8 @@ impl ShadowMap {
                             continue;
                         }
                         let idx = (yi as u32 * self.size + xi as u32) as usize;
-                        if z < self.hair[idx] {
-                            self.hair[idx] = z;
+                        if z < hair[idx] {
+                            hair[idx] = z;
                         }
                     }
                 }
@@ -239,11 +267,59 @@ impl ShadowMap {
     }
 
     /// Cards: their texels with alpha above one half set the first-hair
-    /// depth (`accumulate` false), or add `−ln(1 − alpha)` to their slab.
+    /// depth (`accumulate` false; in parallel over chunks of quads merged by
+    /// `min`, as [`Self::draw_hair`]), or add `−ln(1 − alpha)` to their slab.
     fn draw_cards(&mut self, scene: &Scene, accumulate: bool) {
+        let quads = scene.cards.quad_count();
+        if quads == 0 {
+            return;
+        }
+        if accumulate {
+            let mut texels = Vec::new();
+            self.card_texels(scene, 0..quads, |i, z, alpha| texels.push((i, z, alpha)));
+            for (i, z, alpha) in texels {
+                self.add_optical_depth(i, z, alpha);
+            }
+            return;
+        }
+        let parts = crate::batch::num_threads().clamp(1, 8);
+        let per = quads.div_ceil(parts).max(1);
+        let n = self.hair.len();
+        let this = &*self;
+        let bufs: Vec<Vec<f32>> = crate::batch::pool().install(|| {
+            (0..quads.div_ceil(per))
+                .into_par_iter()
+                .map(|k| {
+                    let mut buf = vec![f32::INFINITY; n];
+                    this.card_texels(scene, k * per..((k + 1) * per).min(quads), |i, z, alpha| {
+                        if alpha >= 0.5 && z < buf[i] {
+                            buf[i] = z;
+                        }
+                    });
+                    buf
+                })
+                .collect()
+        });
+        for buf in bufs {
+            for (h, z) in self.hair.iter_mut().zip(buf) {
+                if z < *h {
+                    *h = z;
+                }
+            }
+        }
+    }
+
+    /// Calls `emit(texel, depth, alpha)` for every texel center covered by
+    /// the quads `range`.
+    fn card_texels(
+        &self,
+        scene: &Scene,
+        range: std::ops::Range<usize>,
+        mut emit: impl FnMut(usize, f32, f32),
+    ) {
         let c = &scene.cards;
         let n = self.size as f32;
-        for q in 0..c.quad_count() {
+        for q in range {
             for tri in [[0, 1, 2], [0, 2, 3]] {
                 let idx = tri.map(|k| 4 * q + k);
                 let m = idx.map(|i| self.proj.map(c.corners[i]));
@@ -269,12 +345,7 @@ impl ShadowMap {
                         };
                         let alpha = tex.sample(uv(0), uv(1));
                         let z = b[0] * m[0].2 + b[1] * m[1].2 + b[2] * m[2].2;
-                        let i = (yi as u32 * self.size + xi as u32) as usize;
-                        if accumulate {
-                            self.add_optical_depth(i, z, alpha);
-                        } else if alpha >= 0.5 && z < self.hair[i] {
-                            self.hair[i] = z;
-                        }
+                        emit((yi as u32 * self.size + xi as u32) as usize, z, alpha);
                     }
                 }
             }
