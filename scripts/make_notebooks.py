@@ -146,11 +146,15 @@ md("""# Run time against error
 
 Each BSDF model's evaluation rate beside its error against its converged f64
 reference (`hairshade bench`; see `python/hairshade/benchmark.py` for what
-each error means). The full run is `hairshade bench --csv
-docs/bench_bsdf.csv --plot docs/bench_bsdf.png`; this notebook shows that
-committed result and re-measures a fast subset (small batches, no DEonHair
-sweep) so that it runs in the test suite in seconds. Rates from the fast run
-are noisier than the committed ones.""")
+each error means), and each scene's render time beside its error against a
+converged Mitsuba reference of the same scene with the same BSDF, Mitsuba's
+own time and error from 1 to 256 spp, scaling with strand count and threads,
+and what each skip saves (`python/hairshade/bench_render.py`). The full run
+is one command, `hairshade bench --out docs` (docs/bench_bsdf.{csv,png},
+docs/bench_render.{csv,png}); this notebook shows that committed result and
+re-measures a fast subset (small batches and images, no DEonHair sweep) so
+that it runs in the test suite. Numbers from the fast run are noisier than
+the committed ones.""")
 code("""import csv, os
 import numpy as np
 import matplotlib.pyplot as plt
@@ -185,4 +189,21 @@ code("""rows = benchmark.bsdf_runtime_vs_error(n=1 << 14, repeats=1, fast=True, 
 for r in rows:
     if r["threads"] != "1":
         print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['evals_per_s'] / 1e6:8.3f} M/s   err {r['rel_l2_error']:.2e}")""")
+md("""## Rendering: time against error (committed full run)
+
+Left: Mitsuba's spp sweep (a line per scene, labelled by spp) and the
+rasterizer (a star) at the reference resolution. Right: frame time against
+strand count at 1280x720.""")
+code("""from hairshade import bench_render
+rpath = path.replace("bench_bsdf.csv", "bench_render.csv")
+rfull = bench_render.read_csv(rpath)
+print(bench_render.summary(rfull))
+import tempfile
+from IPython.display import Image
+png = os.path.join(tempfile.mkdtemp(), "bench_render.png")
+bench_render.plot(rfull, png)
+Image(png)""")
+md("## A fast re-measurement of the rendering part")
+code("""rfast = bench_render.render_runtime_vs_error(fast=True, repeats=1, progress_bar=False)
+print(bench_render.summary(rfast))""")
 write("notebooks/runtime_vs_error.ipynb", cells)

@@ -22,3 +22,25 @@ def test_bench_rows_csv_and_pareto(tmp_path):
     assert lines[0] == "model,variant,precision,threads,evals_per_s,rel_l2_error" and len(lines) == len(rows) + 1
     benchmark.plot(rows, tmp_path / "b.png")
     assert (tmp_path / "b.png").stat().st_size > 1000
+
+
+def test_equal_error_ratio_interpolates_and_bounds():
+    from hairshade.bench_render import equal_error_ratio
+
+    # Mitsuba (ms, relMSE) at increasing spp; error 1/spp, time = spp ms.
+    pts = [(1.0, 1.0), (4.0, 0.25), (16.0, 0.0625)]
+    r, kind = equal_error_ratio(2.0, 0.5, pts)  # error 0.5 is reached at 2 spp = 2 ms
+    assert kind == "interpolated" and abs(r - 1.0) < 1e-12
+    assert equal_error_ratio(2.0, 2.0, pts) == (0.5, "<=")  # 1 spp already better
+    assert equal_error_ratio(2.0, 0.01, pts) == (8.0, ">=")  # 16 spp not enough
+
+
+def test_render_bench_csv_round_trip(tmp_path):
+    from hairshade import bench_render
+
+    rows = [bench_render._row("frame", "s", "cold", 64, 36, ms=1.5),
+            bench_render._row("mitsuba", "s", "mitsuba (chiang)", 64, 36, "mitsuba", 4, 2.0, 0.1)]
+    bench_render.write_csv(rows, tmp_path / "r.csv")
+    back = bench_render.read_csv(tmp_path / "r.csv")
+    assert [(r["section"], r["spp"], r["ms"]) for r in back] == [("frame", 0, 1.5), ("mitsuba", 4, 2.0)]
+    assert "Rasterizer ms/frame" in bench_render.summary(back)
