@@ -6,7 +6,8 @@ and noisy; compare ratios, not absolute times). Rows (CSV columns
 
 - ``frame``: the rasterizer's ms/frame (best of ``repeats``) for each example
   scene at 640x360, 1280x720 and 1920x1080, shadow maps built every frame
-  (``cold``) and reused from the previous frame (``warm``, a camera move).
+  (``cold``) and reused from the previous frame (``warm``, a camera move);
+  for the strand head also per-vertex shading with reused maps (``vertex``).
 - ``error``: the rasterizer at the resolution of the scene's cached Mitsuba
   reference (tests/data; same BSDF on both sides: ChiangHair's far field
   against Mitsuba's ``hair``, or KarisHair against the ``hairshade_karis``
@@ -116,6 +117,10 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
                     warm = _best_ms(lambda: render(s, w, h, progress=False), repeats)
                     rows.append(_row("frame", name, "cold", w, h, ms=cold))
                     rows.append(_row("frame", name, "warm", w, h, ms=warm))
+                    if name == "strand_head":
+                        # per-vertex shading (on the vector kernel), maps reused
+                        vtx = _best_ms(lambda: render(s, w, h, shading="vertex", progress=False), repeats)
+                        rows.append(_row("frame", name, "vertex", w, h, ms=vtx))
         elif step == "error":
             cases = [(n, c, comparison_scene(n), reference_path(n, data), "chiang") for n, c in CASES.items()]
             cases += [(n, c, karis_scene(n), karis_reference_path(n, data), "karis") for n, c in KARIS_CASES.items()
@@ -211,10 +216,10 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
 
 def summary(rows: list[dict[str, Any]]) -> str:
     """The report as text (what ``hairshade bench --render`` prints)."""
-    out = ["Rasterizer ms/frame (best of the repeats; cold: shadow maps built, warm: reused)"]
+    out = ["Rasterizer ms/frame (best of the repeats; cold: shadow maps built, warm: reused, vertex: per-vertex shading)"]
     for r in rows:
         if r["section"] == "frame":
-            out.append(f"  {r['scene']:15s} {r['width']:5d}x{r['height']:<5d} {r['variant']:5s} {r['ms']:9.1f} ms")
+            out.append(f"  {r['scene']:15s} {r['width']:5d}x{r['height']:<5d} {r['variant']:6s} {r['ms']:9.1f} ms")
     out.append("Error against the converged Mitsuba reference (same BSDF), at its resolution")
     for r in rows:
         if r["section"] in ("error", "mitsuba"):
