@@ -428,3 +428,21 @@ def test_19_light_culling_stays_within_its_reported_bound():
     assert err > 0  # the skip does change pixels (within the bound)
     with pytest.raises(ValueError, match="light_cull_threshold"):
         hs.render(s, light_cull_threshold=-1.0)
+
+
+def test_20_no_shadow_map_for_a_light_culled_everywhere():
+    """A dim shadowed point light far from the hair: light culling skips it at
+    every hair point, so its shadow map is not built (skip_unused), and the
+    image is bit-identical to building it. With an opaque sphere (shaded
+    without culling) the map is built."""
+    d = json.loads((EXAMPLES / "single_strand.json").read_text())
+    d["hair"]["material"] = {"model": "karis", "base_color": [0.3, 0.15, 0.08], "roughness": 0.4, "scatter": 0.3}
+    d["lights"].append({"type": "point", "position": [0.0, 0.0, 30.0], "intensity": [0.005, 0.005, 0.005], "shadows": True})
+    s = hs.Scene.from_dict(d)
+    a, sa = hs.render(s, reuse_shadow_maps=False, return_stats=True)
+    b, sb = hs.render(s, reuse_shadow_maps=False, skip_unused=False, return_stats=True)
+    np.testing.assert_array_equal(a, b)
+    assert sa["shadow_maps_skipped"] == 1 and sb["shadow_maps_skipped"] == 0 and sa["lights_culled"] > 0
+    d["meshes"] = [{"type": "sphere", "center": [0.0, -2.0, 0.0], "radius": 0.5}]
+    _, sc = hs.render(hs.Scene.from_dict(d), reuse_shadow_maps=False, return_stats=True)
+    assert sc["shadow_maps_skipped"] == 0

@@ -191,6 +191,10 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
         lit["lights"].append({"type": "point", "position": [30 * math.cos(a), 5.0, 30 * math.sin(a)],
                               "intensity": [0.01, 0.01, 0.01], "shadows": False})
     s_lit = _scene(lit)
+    shadowed = copy.deepcopy(lit)
+    for light in shadowed["lights"][-4:]:
+        light["shadows"] = True
+    s_shadowed = _scene(shadowed)
     scattered = copy.deepcopy(head)
     scattered["hair"]["material"]["scatter"] = 0.0
     s_scatter0 = _scene(scattered)
@@ -200,6 +204,9 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
         ("reuse_shadow_maps (camera moved)", s, dict(reuse_shadow_maps=True), dict(reuse_shadow_maps=False)),
         ("light culling (4 dim far point lights)", s_lit, dict(light_cull_threshold=1e-4),
          dict(light_cull_threshold=0.0)),
+        # the head's material has Scatter > 0: skip_unused acts on the maps alone
+        ("no map for lights culled everywhere (4 shadowed dim lights)", s_shadowed, dict(skip_unused=True),
+         dict(skip_unused=False)),
     ]
     for label, scene, on, off in cases:
         if "reuse_shadow_maps" not in on:

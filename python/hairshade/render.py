@@ -35,7 +35,9 @@ def render(
     override the scene's render settings. ``opaque_culling`` skips hair
     behind a tile's farthest opaque surface (an exact skip: the image is
     identical; off only to measure it). ``skip_unused`` compiles out model
-    terms that cannot contribute (KarisHair's MS block at Scatter 0; exact).
+    terms that cannot contribute (KarisHair's MS block at Scatter 0; exact)
+    and builds no shadow map for a light that light culling skips at every
+    hair point (KarisHair, no opaque surfaces; exact: the map is never read).
     ``reuse_shadow_maps`` takes the shadow maps of an earlier render in this
     process when the geometry, the light and the shadow settings are the
     same (a camera move; exact, the maps are deterministic; at most 4 maps,

@@ -1063,6 +1063,7 @@ fn render<'py>(
     d.set_item("light_cull_max_skipped", stats.light_cull_max_skipped)?;
     d.set_item("shadow_ms", stats.shadow_ms)?;
     d.set_item("shadow_maps_reused", stats.shadow_maps_reused)?;
+    d.set_item("shadow_maps_skipped", stats.shadow_maps_skipped)?;
     d.set_item("setup_ms", stats.setup_ms)?;
     d.set_item("tiles_ms", stats.tiles_ms)?;
     d.set_item("total_ms", stats.total_ms)?;

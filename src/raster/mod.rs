@@ -130,6 +130,9 @@ pub struct RenderStats {
     pub light_cull_max_skipped: f32,
     /// Shadow maps taken from an earlier render (see `reuse_shadow_maps`).
     pub shadow_maps_reused: usize,
+    /// Shadowed lights whose map was not built: light culling skips them at
+    /// every hair point (see `lights_without_visible_effect`).
+    pub shadow_maps_skipped: usize,
     /// Wall time of the phases, in milliseconds: shadow maps, setup
     /// (per-vertex shading when on, projection, binning), tiles
     /// (rasterization, shading, resolve), and the whole render.
@@ -753,6 +756,51 @@ fn shade_diffuse(
     albedo * std::f32::consts::FRAC_1_PI * e_total
 }
 
+/// Per light: whether its shadow map can be skipped (`skip_unused`) because
+/// light culling skips the light at every point of the scene's bounding
+/// sphere, so the map would never be read: KarisHair, culling on, no opaque
+/// surfaces (they are shaded without culling), and the BSDF bound times the
+/// largest irradiance inside the sphere below 0.99 × the threshold (the
+/// margin covers f32 rounding of the per-point bound).
+fn lights_without_visible_effect(
+    scene: &Scene,
+    opts: &RenderOptions,
+    center: Vec3,
+    radius: f32,
+) -> Vec<bool> {
+    let f_max = match &scene.hair {
+        HairShading::Karis(k) if opts.skip_unused && opts.light_cull_threshold > 0.0 => {
+            k.upper_bound()
+        }
+        _ => return vec![false; scene.lights.len()],
+    };
+    if !scene.spheres.is_empty() || !scene.triangles.is_empty() {
+        return vec![false; scene.lights.len()];
+    }
+    scene
+        .lights
+        .iter()
+        .map(|l| {
+            let e_max = match *l {
+                scene::Light::Directional { intensity, .. } => intensity.max_element(),
+                scene::Light::Point {
+                    position,
+                    intensity,
+                    ..
+                } => {
+                    let gap = (position - center).length() - radius;
+                    if gap > 0.0 {
+                        intensity.max_element() / (gap * gap)
+                    } else {
+                        f32::INFINITY
+                    }
+                }
+            };
+            f_max * e_max < 0.99 * opts.light_cull_threshold
+        })
+        .collect()
+}
+
 /// Renders `scene`; returns the image and statistics.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> (Image, RenderStats) {
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
@@ -786,12 +834,16 @@ pub fn render_with_progress(
     } else {
         0
     };
+    let unneeded = lights_without_visible_effect(scene, opts, center, radius);
     let built: Vec<(Option<std::sync::Arc<ShadowMap>>, bool)> = pool().install(|| {
         scene
             .lights
             .par_iter()
-            .map(|l| {
-                if opts.reuse_shadow_maps {
+            .zip(&unneeded)
+            .map(|(l, &skip)| {
+                if skip {
+                    (None, false)
+                } else if opts.reuse_shadow_maps {
                     ShadowMap::build_cached(l, scene, &world, center, radius, opts, geometry)
                 } else {
                     (
@@ -804,6 +856,7 @@ pub fn render_with_progress(
             .collect()
     });
     let shadow_maps_reused = built.iter().filter(|b| b.1).count();
+    let shadow_maps_skipped = unneeded.iter().filter(|&&u| u).count();
     let shadows: Vec<Option<std::sync::Arc<ShadowMap>>> = built.into_iter().map(|b| b.0).collect();
     let shadow_ms = ms(t0);
     let t1 = std::time::Instant::now();
@@ -872,6 +925,7 @@ pub fn render_with_progress(
         segments_visible: visible,
         shadow_ms,
         shadow_maps_reused,
+        shadow_maps_skipped,
         setup_ms,
         tiles_ms: ms(t2),
         ..Default::default()

@@ -185,7 +185,8 @@ pub struct RenderOptions {
     /// fails every pixel's depth test anyway).
     pub opaque_culling: bool,
     /// Compile out model terms that cannot contribute (KarisHair's MS block
-    /// at Scatter 0); exact.
+    /// at Scatter 0), and build no shadow map for a light that light
+    /// culling skips at every hair point; exact.
     pub skip_unused: bool,
     /// Reuse the shadow maps of an earlier render when the geometry, the
     /// light and the shadow settings are unchanged (exact: maps are
