@@ -42,7 +42,7 @@ build: $(STAMP) llvm
 
 bench: build
 	cargo bench --bench fiber
-	$(PY) benches/bench_bsdf.py
+	$(PY) -m hairshade bench --out docs
 
 clean:
 	rm -rf $(VENV) target

@@ -433,8 +433,8 @@ def test_19_light_culling_stays_within_its_reported_bound():
 def test_20_no_shadow_map_for_a_light_culled_everywhere():
     """A dim shadowed point light far from the hair: light culling skips it at
     every hair point, so its shadow map is not built (skip_unused), and the
-    image is bit-identical to building it. With an opaque sphere (shaded
-    without culling) the map is built."""
+    image is bit-identical to building it, also with an opaque sphere
+    (diffuse surfaces cull the light by irradiance/pi, their bound)."""
     d = json.loads((EXAMPLES / "single_strand.json").read_text())
     d["hair"]["material"] = {"model": "karis", "base_color": [0.3, 0.15, 0.08], "roughness": 0.4, "scatter": 0.3}
     d["lights"].append({"type": "point", "position": [0.0, 0.0, 30.0], "intensity": [0.005, 0.005, 0.005], "shadows": True})
@@ -443,6 +443,13 @@ def test_20_no_shadow_map_for_a_light_culled_everywhere():
     b, sb = hs.render(s, reuse_shadow_maps=False, skip_unused=False, return_stats=True)
     np.testing.assert_array_equal(a, b)
     assert sa["shadow_maps_skipped"] == 1 and sb["shadow_maps_skipped"] == 0 and sa["lights_culled"] > 0
-    d["meshes"] = [{"type": "sphere", "center": [0.0, -2.0, 0.0], "radius": 0.5}]
-    _, sc = hs.render(hs.Scene.from_dict(d), reuse_shadow_maps=False, return_stats=True)
-    assert sc["shadow_maps_skipped"] == 0
+    d["meshes"] = [{"type": "sphere", "center": [0.0, -0.3, 0.0], "radius": 0.2}]
+    s2 = hs.Scene.from_dict(d)
+    c, sc = hs.render(s2, reuse_shadow_maps=False, return_stats=True)
+    e, se = hs.render(s2, reuse_shadow_maps=False, skip_unused=False, return_stats=True)
+    np.testing.assert_array_equal(c, e)
+    assert sc["shadow_maps_skipped"] == 1 and se["shadow_maps_skipped"] == 0
+    # A brighter light is not culled everywhere: its map is built.
+    d["lights"][-1]["intensity"] = [50.0, 50.0, 50.0]
+    _, sf = hs.render(hs.Scene.from_dict(d), reuse_shadow_maps=False, return_stats=True)
+    assert sf["shadow_maps_skipped"] == 0

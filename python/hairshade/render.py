@@ -43,7 +43,8 @@ def render(
     same (a camera move; exact, the maps are deterministic; at most 4 maps,
     32 MiB at the default size, are kept). ``light_cull_threshold``: with
     KarisHair, a light whose irradiance times the model's upper bound is
-    below this radiance at a shading point is skipped there; a pixel changes
+    below this radiance at a shading point is skipped there (on opaque
+    surfaces: irradiance/pi); a pixel changes
     by at most threshold x lights (0 turns it off; the stats report the
     number skipped and the largest skipped bound).
     ``progress``: a progress bar on stderr (default: when stderr is a

@@ -647,6 +647,16 @@ impl<'a> Shader<'a> {
         Some(out)
     }
 
+    /// The light-culling threshold for opaque diffuse surfaces: the hair's
+    /// when hair is culled (KarisHair), else 0 (off).
+    fn diffuse_cull(&self) -> f32 {
+        if self.f_max.is_some() {
+            self.cull_threshold
+        } else {
+            0.0
+        }
+    }
+
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
     fn shade(&self, p: Vec3, t: Vec3, v: Vec3) -> Vec3 {
         let mut out = Vec3::ZERO;
@@ -721,19 +731,22 @@ fn fiber_frame(t: Vec3, a: Vec3, b: Vec3) -> ([f32; 3], [f32; 3]) {
     (to(a), to(b))
 }
 
-/// Diffuse radiance of an opaque surface point.
+/// Diffuse radiance of an opaque surface point. Light culling (`cull` > 0):
+/// a light with `irradiance/π` below `cull` is skipped (albedo ≤ 1, so its
+/// contribution is below `cull`).
 fn shade_diffuse(
     scene: &Scene,
     shadows: &[Option<std::sync::Arc<ShadowMap>>],
     p: Vec3,
     n: Vec3,
     albedo: Vec3,
+    cull: f32,
 ) -> Vec3 {
     let mut e_total = Vec3::ZERO;
     for (light, sm) in scene.lights.iter().zip(shadows) {
         let (l, e) = light.incident(p);
         let c = n.dot(l);
-        if c <= 0.0 {
+        if c <= 0.0 || e.max_element() * std::f32::consts::FRAC_1_PI < cull {
             continue;
         }
         let vis = sm
@@ -758,10 +771,10 @@ fn shade_diffuse(
 
 /// Per light: whether its shadow map can be skipped (`skip_unused`) because
 /// light culling skips the light at every point of the scene's bounding
-/// sphere, so the map would never be read: KarisHair, culling on, no opaque
-/// surfaces (they are shaded without culling), and the BSDF bound times the
-/// largest irradiance inside the sphere below 0.99 × the threshold (the
-/// margin covers f32 rounding of the per-point bound).
+/// sphere, hair and opaque surfaces alike, so the map would never be read:
+/// KarisHair, culling on, and the larger of the BSDF bound and 1/π (opaque
+/// surfaces) times the largest irradiance inside the sphere below 0.99 × the
+/// threshold (the margin covers f32 rounding of the per-point bounds).
 fn lights_without_visible_effect(
     scene: &Scene,
     opts: &RenderOptions,
@@ -774,9 +787,11 @@ fn lights_without_visible_effect(
         }
         _ => return vec![false; scene.lights.len()],
     };
-    if !scene.spheres.is_empty() || !scene.triangles.is_empty() {
-        return vec![false; scene.lights.len()];
-    }
+    let f_max = if scene.spheres.is_empty() && scene.triangles.is_empty() {
+        f_max
+    } else {
+        f_max.max(std::f32::consts::FRAC_1_PI)
+    };
     scene
         .lights
         .iter()
@@ -1026,6 +1041,7 @@ fn render_tile(
                             hit,
                             (hit - s.center) / s.radius,
                             s.albedo,
+                            ctx.shader.diffuse_cull(),
                         );
                     }
                 }
@@ -1077,7 +1093,7 @@ fn render_tile(
                 } else {
                     t.normal
                 };
-                base[k] = shade_diffuse(scene, shadows, pw, n, t.albedo);
+                base[k] = shade_diffuse(scene, shadows, pw, n, t.albedo, ctx.shader.diffuse_cull());
             }
         }
     }
