@@ -195,7 +195,9 @@ pub trait Lanes:
 const SHIFTER: f32 = 12_582_912.0;
 /// Bits of [`SHIFTER`].
 const SHIFTER_BITS: i32 = 0x4B40_0000;
-/// ln 2 split so that n·LN2_HI is exact.
+/// ln 2 split so that n·LN2_HI is exact (LN2_HI has 10 significant bits;
+/// it is not an approximation of ln 2 but its leading part).
+#[allow(clippy::approx_constant)]
 const LN2_HI: f32 = 0.693_359_4;
 const LN2_LO: f32 = -2.121_944_4e-4;
 

@@ -30,6 +30,8 @@ pub fn deon_mp<T: Real>(sin_theta_i: T, cos_theta_i: T, sin_theta_o: T, cos_thet
 /// d'Eon's M_p as Mitsuba 3 (and pbrt) evaluate it: truncated I0 series,
 /// asymptotic log I0 above 12, and a separate branch for `1/v > 10`.
 #[inline(always)]
+// 0.6931 below is Mitsuba's own truncated ln 2, kept to reproduce it exactly.
+#[allow(clippy::approx_constant)]
 pub fn deon_mp_mitsuba<T: Real>(
     sin_theta_i: T,
     cos_theta_i: T,
