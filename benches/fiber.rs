@@ -76,15 +76,7 @@ fn bench_karis(c: &mut Criterion) {
     };
     let (l, v) = (flat(directions(n, 1)), flat(directions(n, 2)));
     let t = [0.0f32, 1.0, 0.0];
-    let inp = KarisInputs {
-        l: &l,
-        v: &v,
-        t: &t,
-        shadow: &[1.0],
-        global_scattering: &[1.0; 3],
-        local_scattering: &[0.0; 3],
-        opaque_visibility: &[1.0],
-    };
+    let inp = KarisInputs::directions(&l, &v, &t);
     let m: KarisHair<f32> = KarisParams::default().build().unwrap();
     let mut out = vec![0.0f32; 3 * n];
     let mut g = c.benchmark_group("karis");

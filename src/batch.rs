@@ -249,6 +249,22 @@ pub struct KarisInputs<'a, T> {
     pub opaque_visibility: &'a [T],
 }
 
+impl<'a> KarisInputs<'a, f32> {
+    /// Directions only, with the default transmittance (shadow 1, global
+    /// scattering 1, local scattering 0, opaque visibility 1).
+    pub fn directions(l: &'a [f32], v: &'a [f32], t: &'a [f32]) -> Self {
+        Self {
+            l,
+            v,
+            t,
+            shadow: &[1.0],
+            global_scattering: &[1.0; 3],
+            local_scattering: &[0.0; 3],
+            opaque_visibility: &[1.0],
+        }
+    }
+}
+
 impl<T: Real> KarisInputs<'_, T> {
     /// Number of pairs (the longest input).
     pub fn len(&self) -> usize {

@@ -581,15 +581,8 @@ impl<'a> Shader<'a> {
                     .into_par_iter()
                     .map(|i| {
                         let (l, e) = light.incident(points[i]);
-                        if let Some(f_max) = self.f_max {
-                            let bound = f_max * e.max_element();
-                            if bound < self.cull_threshold {
-                                use std::sync::atomic::Ordering::Relaxed;
-                                self.culled.fetch_add(1, Relaxed);
-                                self.culled_max_bits
-                                    .fetch_max(bound.max(0.0).to_bits(), Relaxed);
-                                return (l, Vec3::ZERO, 0.0);
-                            }
+                        if self.culls(e) {
+                            return (l, Vec3::ZERO, 0.0);
                         }
                         let vis = sm.as_ref().map_or(1.0, |m| m.visibility(points[i]));
                         (l, e, vis)
@@ -599,13 +592,8 @@ impl<'a> Shader<'a> {
             let l: Vec<f32> = per.iter().flat_map(|p| p.0.to_array()).collect();
             let shadow: Vec<f32> = per.iter().map(|p| p.2).collect();
             let inp = KarisInputs {
-                l: &l,
-                v: &v,
-                t: &t,
                 shadow: &shadow,
-                global_scattering: &[1.0; 3],
-                local_scattering: &[0.0; 3],
-                opaque_visibility: &[1.0],
+                ..KarisInputs::directions(&l, &v, &t)
             };
             karis_eval_simd::<false>(k, &inp, &mut f, level);
             for (i, (o, p)) in out.iter_mut().zip(&per).enumerate() {
@@ -629,16 +617,7 @@ impl<'a> Shader<'a> {
                     .unzip()
             });
             let ln: Vec<f32> = ln.iter().flat_map(|x| x.to_array()).collect();
-            let inp = KarisInputs {
-                l: &ln,
-                v: &v,
-                t: &t,
-                shadow: &[1.0],
-                global_scattering: &[1.0; 3],
-                local_scattering: &[0.0; 3],
-                opaque_visibility: &[1.0],
-            };
-            karis_eval_simd::<false>(m, &inp, &mut f, level);
+            karis_eval_simd::<false>(m, &KarisInputs::directions(&ln, &v, &t), &mut f, level);
             for (i, o) in out.iter_mut().enumerate() {
                 *o +=
                     Vec3::new(f[3 * i], f[3 * i + 1], f[3 * i + 2]) * rad[i] * std::f32::consts::PI;
@@ -657,21 +636,33 @@ impl<'a> Shader<'a> {
         }
     }
 
+    /// Whether light culling skips a light of irradiance `e` at a hair point
+    /// (its bounded contribution is below the threshold); counts the skip
+    /// and keeps the largest skipped bound for the statistics.
+    #[inline]
+    fn culls(&self, e: Vec3) -> bool {
+        let Some(f_max) = self.f_max else {
+            return false;
+        };
+        let bound = f_max * e.max_element();
+        if bound >= self.cull_threshold {
+            return false;
+        }
+        use std::sync::atomic::Ordering::Relaxed;
+        self.culled.fetch_add(1, Relaxed);
+        // non-negative floats order as their bits
+        self.culled_max_bits
+            .fetch_max(bound.max(0.0).to_bits(), Relaxed);
+        true
+    }
+
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
     fn shade(&self, p: Vec3, t: Vec3, v: Vec3) -> Vec3 {
         let mut out = Vec3::ZERO;
         for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
             let (l, e) = light.incident(p);
-            if let Some(f_max) = self.f_max {
-                let bound = f_max * e.max_element();
-                if bound < self.cull_threshold {
-                    use std::sync::atomic::Ordering::Relaxed;
-                    self.culled.fetch_add(1, Relaxed);
-                    // non-negative floats order as their bits
-                    self.culled_max_bits
-                        .fetch_max(bound.max(0.0).to_bits(), Relaxed);
-                    continue;
-                }
+            if self.culls(e) {
+                continue;
             }
             let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
             if vis <= 0.0 {

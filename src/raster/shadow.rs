@@ -192,20 +192,33 @@ impl ShadowMap {
         self.scale
     }
 
-    /// First-hair depth of the strands, drawn in parallel: up to 8 chunks
-    /// of segments each draw into their own buffer, merged by `min`
-    /// (order-independent, so the map does not depend on the thread count).
+    /// First-hair depth of the strands, drawn in parallel
+    /// ([`Self::min_depth_in_parallel`]).
     fn draw_hair(&mut self, segments: &[(Vec3, Vec3, f32, f32)]) {
+        self.min_depth_in_parallel(segments.len(), |this, range, buf| {
+            this.draw_hair_into(&segments[range], buf)
+        });
+    }
+
+    /// Draws `count` items into the first-hair depth in parallel: up to 8
+    /// chunks of items, each drawn by `draw(self, chunk, buffer)` into its
+    /// own buffer, merged by `min` (order-independent, so the map does not
+    /// depend on the thread count).
+    fn min_depth_in_parallel(
+        &mut self,
+        count: usize,
+        draw: impl Fn(&Self, std::ops::Range<usize>, &mut [f32]) + Sync,
+    ) {
         let parts = crate::batch::num_threads().clamp(1, 8);
-        let per = segments.len().div_ceil(parts).max(1);
+        let per = count.div_ceil(parts).max(1);
         let texels = self.hair.len();
         let this = &*self;
         let bufs: Vec<Vec<f32>> = crate::batch::pool().install(|| {
-            segments
-                .par_chunks(per)
-                .map(|part| {
+            (0..count.div_ceil(per))
+                .into_par_iter()
+                .map(|k| {
                     let mut buf = vec![f32::INFINITY; texels];
-                    this.draw_hair_into(part, &mut buf);
+                    draw(this, k * per..((k + 1) * per).min(count), &mut buf);
                     buf
                 })
                 .collect()
@@ -267,8 +280,8 @@ impl ShadowMap {
     }
 
     /// Cards: their texels with alpha above one half set the first-hair
-    /// depth (`accumulate` false; in parallel over chunks of quads merged by
-    /// `min`, as [`Self::draw_hair`]), or add `−ln(1 − alpha)` to their slab.
+    /// depth (`accumulate` false; in parallel, [`Self::min_depth_in_parallel`]),
+    /// or add `−ln(1 − alpha)` to their slab.
     fn draw_cards(&mut self, scene: &Scene, accumulate: bool) {
         let quads = scene.cards.quad_count();
         if quads == 0 {
@@ -282,31 +295,13 @@ impl ShadowMap {
             }
             return;
         }
-        let parts = crate::batch::num_threads().clamp(1, 8);
-        let per = quads.div_ceil(parts).max(1);
-        let n = self.hair.len();
-        let this = &*self;
-        let bufs: Vec<Vec<f32>> = crate::batch::pool().install(|| {
-            (0..quads.div_ceil(per))
-                .into_par_iter()
-                .map(|k| {
-                    let mut buf = vec![f32::INFINITY; n];
-                    this.card_texels(scene, k * per..((k + 1) * per).min(quads), |i, z, alpha| {
-                        if alpha >= 0.5 && z < buf[i] {
-                            buf[i] = z;
-                        }
-                    });
-                    buf
-                })
-                .collect()
-        });
-        for buf in bufs {
-            for (h, z) in self.hair.iter_mut().zip(buf) {
-                if z < *h {
-                    *h = z;
+        self.min_depth_in_parallel(quads, |this, range, buf| {
+            this.card_texels(scene, range, |i, z, alpha| {
+                if alpha >= 0.5 && z < buf[i] {
+                    buf[i] = z;
                 }
-            }
-        }
+            })
+        });
     }
 
     /// Calls `emit(texel, depth, alpha)` for every texel center covered by

@@ -21,7 +21,9 @@ use crate::simd::{Lanes, Level, F};
 #[cfg(target_arch = "x86_64")]
 use crate::simd::{F16, F8};
 
-/// A material's constants, splatted once per kernel call.
+/// A material's constants, splatted once per kernel call. The model's
+/// fields are copied in, not borrowed: reading them through a reference in
+/// the kernel costs 5% more instructions per pair (callgrind, AVX2).
 #[derive(Clone, Copy)]
 struct Consts {
     color_ln: [f32; 3],
