@@ -60,6 +60,33 @@ fn bench_chiang(c: &mut Criterion) {
         });
     }
     g.finish();
+    // The vector kernel (f32, exact I0) at each SIMD level, batch of 2^16
+    // pairs on every thread, beside the scalar f32 kernel on the same batch.
+    use hairshade::batch::{chiang_eval_simd, map_pairs_rgb};
+    use hairshade::simd::Level;
+    let n = 1 << 16;
+    let flat = |d: Vec<[f64; 3]>| {
+        d.iter()
+            .flat_map(|v| v.map(|x| x as f32))
+            .collect::<Vec<f32>>()
+    };
+    let (wi, wo) = (flat(directions(n, 1)), flat(directions(n, 2)));
+    let m: ChiangHair<f32> = ChiangParams::default().build().unwrap();
+    let mut out = vec![0.0f32; 3 * n];
+    let mut g = c.benchmark_group("chiang_batch");
+    g.throughput(Throughput::Elements(n as u64));
+    g.bench_function("scalar", |b| {
+        b.iter(|| map_pairs_rgb(black_box(&wi), &wo, &mut out, |a, o| m.eval(a, o)))
+    });
+    for level in [Level::Portable, Level::Avx2, Level::Avx512] {
+        if level.min_with(Level::detect()) != level {
+            continue;
+        }
+        g.bench_function(level.name(), |b| {
+            b.iter(|| chiang_eval_simd(&m, black_box(&wi), &wo, &mut out, level))
+        });
+    }
+    g.finish();
 }
 
 /// KarisHair f32, all lobes, batch of 2^16 pairs on every thread: the

@@ -5,6 +5,7 @@
 //! produces 0 (value, pdf and sample weight; a sampled `wo` of 0) without
 //! touching its neighbours.
 
+use crate::fiber::chiang::{ChiangHair, I0Mode};
 use crate::fiber::deon::DEonHair;
 use crate::fiber::frame::{normalized, Vec3};
 use crate::fiber::karis::{KarisHair, KarisLobes, LobeVisitor, Transmittance};
@@ -405,6 +406,55 @@ pub fn karis_eval_simd<const LOBES: bool>(
             .enumerate()
             .for_each(|(k, part)| {
                 crate::fiber::karis::simd::eval_range::<LOBES>(m, inp, k * chunk, part, level)
+            })
+    });
+}
+
+/// `a` as `f32` when `T` is `f32`.
+fn cast_f32<T: Real>(a: &[T]) -> Option<&[f32]> {
+    (std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>())
+        // SAFETY: T is f32 (checked), a cast to the same type.
+        .then(|| unsafe { std::slice::from_raw_parts(a.as_ptr() as *const f32, a.len()) })
+}
+
+/// Batched [`ChiangHair::eval`] (out `3N`); degenerate pairs give 0. `f32`
+/// models with [`I0Mode::Exact`] run on the vector kernel
+/// ([`chiang_eval_simd`]), the others on the scalar one.
+pub fn chiang_eval<T: Real>(m: &ChiangHair<T>, wi: &[T], wo: &[T], out: &mut [T]) {
+    if m.i0_mode() == I0Mode::Exact {
+        if let (Some(a), Some(b)) = (cast_f32(wi), cast_f32(wo)) {
+            // SAFETY: T is f32 (cast_f32 succeeded), so these are casts to the same type.
+            let (m32, out32) = unsafe {
+                (
+                    &*(m as *const ChiangHair<T> as *const ChiangHair<f32>),
+                    std::slice::from_raw_parts_mut(out.as_mut_ptr() as *mut f32, out.len()),
+                )
+            };
+            return chiang_eval_simd(m32, a, b, out32, crate::simd::Level::detect());
+        }
+    }
+    map_pairs_rgb(wi, wo, out, |a, b| m.eval(a, b));
+}
+
+/// [`ChiangHair::eval`] for `f32` on the vector kernel at `level` (at most
+/// [`Level::detect`](crate::simd::Level::detect)'s), in parallel on
+/// [`pool`]. The model's I0 mode is taken as [`I0Mode::Exact`].
+pub fn chiang_eval_simd(
+    m: &ChiangHair<f32>,
+    wi: &[f32],
+    wo: &[f32],
+    out: &mut [f32],
+    level: crate::simd::Level,
+) {
+    let n = pair_count(wi, wo);
+    assert_eq!(out.len(), 3 * n);
+    let level = level.min_with(crate::simd::Level::detect());
+    pool().install(|| {
+        let chunk = chunk_for(n).next_multiple_of(16);
+        out.par_chunks_mut(3 * chunk)
+            .enumerate()
+            .for_each(|(k, part)| {
+                crate::fiber::chiang::simd::eval_range(m, wi, wo, k * chunk, part, level)
             })
     });
 }

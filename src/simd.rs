@@ -214,6 +214,227 @@ fn expm_poly<V: Lanes>(r: V) -> V {
     p.mul_add(r * r, r + 1.0)
 }
 
+// ---------------------------------------------------------------------------
+// Special functions of the vector kernels
+// ---------------------------------------------------------------------------
+//
+// Polynomial coefficients: `scripts/fit_simd_polys.py` (least squares on
+// Chebyshev nodes against numpy/scipy in f64); the tests below measure the
+// f32 evaluation against f64.
+
+/// `atan(a)/a` as a polynomial in `a²` on [0, 1] (absolute error of
+/// `a·P(a²)` ≤ 1.2e-8 in f64).
+const ATAN: [f32; 9] = [
+    1.0,
+    -0.333_330_66,
+    0.199_924_84,
+    -0.142_025_71,
+    0.106_367_54,
+    -0.074_954_46,
+    0.042_587_608,
+    -0.016_005_03,
+    0.002_834_064_2,
+];
+
+/// `atan2(y, x)` in [-π, π] (absolute error ≤ 3e-7, measured in the tests);
+/// `atan2(0, 0) = 0`; NaN in, NaN out.
+#[inline(always)]
+pub(crate) fn atan2<V: Lanes>(y: V, x: V) -> V {
+    let c = V::splat;
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = (ax.min(ay), ax.max(ay));
+    // a = lo/hi in [0, 1]; hi = 0 only when both are 0.
+    let a = V::select(hi.gt(c(0.0)), lo / hi, c(0.0));
+    let s = a * a;
+    let mut p = c(ATAN[8]);
+    for &k in ATAN[..8].iter().rev() {
+        p = p.mul_add(s, c(k));
+    }
+    let r = a * p;
+    let r = V::select(ay.gt(ax), c(std::f32::consts::FRAC_PI_2) - r, r);
+    let r = V::select(x.lt(c(0.0)), c(std::f32::consts::PI) - r, r);
+    let r = V::select(y.lt(c(0.0)), -r, r);
+    // NaN lanes: min/max above dropped them; give them back.
+    V::select(x.is_nan(), x, V::select(y.is_nan(), y, r))
+}
+
+/// `x − 2πk` in [-π, π] for the nearest integer k (|x| < 2^20).
+#[inline(always)]
+pub(crate) fn wrap_pi<V: Lanes>(x: V) -> V {
+    let c = V::splat;
+    let k = x.mul_add(c(0.5 * std::f32::consts::FRAC_1_PI), c(SHIFTER)) - SHIFTER;
+    // 2π split so that k·TWO_PI_HI is exact for |k| < 2^11.
+    k.mul_add(c(-TWO_PI_HI), x) - k * TWO_PI_LO
+}
+
+/// Leading part of 2π (12 significant bits) and the rest.
+const TWO_PI_HI: f32 = 6.283_203;
+const TWO_PI_LO: f32 = (std::f64::consts::TAU - TWO_PI_HI as f64) as f32;
+
+/// Below this argument [`i0_series`] evaluates I0, above it [`i0e_large`].
+pub(crate) const I0_SWITCH: f32 = 6.0;
+
+/// `1/(k!)²`, k = 0..=11: the power series of I0 in `q = x²/4` (relative
+/// truncation error below 2e-8 for x ≤ [`I0_SWITCH`]).
+const I0_SERIES: [f32; 12] = {
+    let mut t = [0.0f32; 12];
+    let mut f = 1.0f64;
+    let mut k = 0;
+    while k < 12 {
+        if k > 0 {
+            f *= k as f64;
+        }
+        t[k] = (1.0 / (f * f)) as f32;
+        k += 1;
+    }
+    t
+};
+
+/// I0(x) for `x ≤ I0_SWITCH`, from `q = x²/4` (all terms positive: a few
+/// ulps).
+#[inline(always)]
+pub(crate) fn i0_series<V: Lanes>(q: V) -> V {
+    let mut p = V::splat(I0_SERIES[11]);
+    for &k in I0_SERIES[..11].iter().rev() {
+        p = p.mul_add(q, V::splat(k));
+    }
+    p
+}
+
+/// `√x · e^{-x} I0(x)` as a polynomial in `u = I0_SWITCH/x` on (0, 1]
+/// (relative error 2e-8 in f64).
+const I0E_LARGE: [f32; 7] = [
+    0.398_942_3,
+    0.008_311_518,
+    0.000_776_582_8,
+    0.000_144_878_77,
+    2.508_355_3e-5,
+    5.454_654e-7,
+    2.479_454e-5,
+];
+
+/// `e^{-x} I0(x)` for `x > I0_SWITCH`.
+#[inline(always)]
+pub(crate) fn i0e_large<V: Lanes>(x: V) -> V {
+    let u = V::splat(I0_SWITCH) / x;
+    let mut p = V::splat(I0E_LARGE[6]);
+    for &k in I0E_LARGE[..6].iter().rev() {
+        p = p.mul_add(u, V::splat(k));
+    }
+    p / x.sqrt()
+}
+
+/// Helpers shared by the vector kernels' tests.
+#[cfg(test)]
+pub(crate) mod testing {
+    use super::Level;
+
+    /// `3n` components uniform in [-1, 1) (xorshift64*): directions, not
+    /// normalized.
+    pub(crate) fn directions(n: usize, seed: u64) -> Vec<f32> {
+        let mut s = seed;
+        let mut next = move || {
+            s ^= s >> 12;
+            s ^= s << 25;
+            s ^= s >> 27;
+            (s.wrapping_mul(0x2545F4914F6CDD1D) >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        (0..3 * n).map(|_| next()).collect()
+    }
+
+    /// Direction `i` of a flat f32 array, normalized in f64.
+    pub(crate) fn unit64(a: &[f32], i: usize) -> [f64; 3] {
+        let w = [a[3 * i] as f64, a[3 * i + 1] as f64, a[3 * i + 2] as f64];
+        let len = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+        w.map(|x| x / len)
+    }
+
+    /// The levels this CPU can run, lowest first.
+    pub(crate) fn levels() -> Vec<Level> {
+        let mut l = vec![Level::Portable];
+        if Level::detect() != Level::Portable {
+            l.push(Level::Avx2);
+        }
+        if Level::detect() == Level::Avx512 {
+            l.push(Level::Avx512);
+        }
+        l
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Records in and out of lanes
+// ---------------------------------------------------------------------------
+
+/// Dot product of two lane-vectors of 3D points.
+#[inline(always)]
+pub(crate) fn dot<V: Lanes>(a: &[V; 3], b: &[V; 3]) -> V {
+    a[0].mul_add(b[0], a[1].mul_add(b[1], a[2] * b[2]))
+}
+
+/// Lanes `base..base+count` (`count ≤ N`) of a flat array of `W`-wide
+/// records (or of its one broadcast record), de-interleaved; lanes past
+/// `count` are 0.
+#[inline(always)]
+pub(crate) fn load<V: Lanes, const W: usize>(a: &[f32], base: usize, count: usize) -> [V; W] {
+    let mut out = [V::splat(0.0); W];
+    if a.len() == W {
+        for c in 0..W {
+            out[c] = V::splat(a[c]);
+        }
+        return out;
+    }
+    let mut buf = [[0.0f32; 16]; W];
+    let s = &a[W * base..W * (base + count)];
+    for j in 0..count.min(16) {
+        for c in 0..W {
+            buf[c][j] = s[W * j + c];
+        }
+    }
+    for c in 0..W {
+        out[c] = V::load(&buf[c]);
+    }
+    out
+}
+
+/// Directions as [`load`], normalized as `frame::normalized`; lanes past
+/// `count` and degenerate directions are masked off.
+#[inline(always)]
+pub(crate) fn load_dir<V: Lanes>(a: &[f32], base: usize, count: usize) -> ([V; 3], V::Mask) {
+    let w = load::<V, 3>(a, base, count);
+    let d = dot(&w, &w);
+    let ok = w[0].is_finite() & w[1].is_finite() & w[2].is_finite();
+    // |w|² in the normal range in every lane (almost always): one square
+    // root; otherwise scale by the largest component first.
+    // (No closures here or in the kernels: a closure is compiled without
+    // the caller's target features, and its intrinsics become calls.)
+    if V::all(d.gt(V::splat(1e-30)) & d.lt(V::splat(1e30))) {
+        let inv = V::splat(1.0) / d.sqrt();
+        return ([w[0] * inv, w[1] * inv, w[2] * inv], ok);
+    }
+    let m = w[0].abs().max(w[1].abs()).max(w[2].abs());
+    let ok = ok & m.gt(V::splat(0.0));
+    let inv_m = V::splat(1.0) / m;
+    let s = [w[0] * inv_m, w[1] * inv_m, w[2] * inv_m];
+    let inv = V::splat(1.0) / dot(&s, &s).sqrt();
+    ([s[0] * inv, s[1] * inv, s[2] * inv], ok)
+}
+
+/// Writes lanes `..count` of `W`-wide records into `o` (`o.len() == W·count`).
+#[inline(always)]
+pub(crate) fn store<V: Lanes, const W: usize>(o: &mut [f32], x: &[V; W], count: usize) {
+    let mut buf = [[0.0f32; 16]; W];
+    for c in 0..W {
+        x[c].store(&mut buf[c]);
+    }
+    let o = &mut o[..W * count];
+    for j in 0..count.min(16) {
+        for c in 0..W {
+            o[W * j + c] = buf[c][j];
+        }
+    }
+}
+
 /// `N` lanes as a plain array (the portable level).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct F<const N: usize>(pub [f32; N]);
@@ -703,6 +924,33 @@ mod x86 {
 mod tests {
     use super::*;
 
+    /// Runs the generic `$check::<V>()` at every level this CPU has, each
+    /// inside a function compiled for that level.
+    macro_rules! at_every_level {
+        ($check:ident) => {{
+            $check::<F<4>>();
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn avx2() {
+                    $check::<F8>()
+                }
+                #[target_feature(enable = "avx512f,avx2,fma")]
+                unsafe fn avx512() {
+                    $check::<F16>()
+                }
+                if Level::detect() != Level::Portable {
+                    // SAFETY: AVX2+FMA present (checked).
+                    unsafe { avx2() }
+                }
+                if Level::detect() == Level::Avx512 {
+                    // SAFETY: AVX-512F present (checked).
+                    unsafe { avx512() }
+                }
+            }
+        }};
+    }
+
     /// Worst relative error of `V::exp` against f64 over [-87, 88.5], and
     /// the documented edges.
     fn check_exp<V: Lanes>() {
@@ -759,50 +1007,82 @@ mod tests {
     /// 1. exp: ≤ 2 ulp against f64, edges, NaN (every level this CPU has).
     #[test]
     fn t01_exp_matches_f64() {
-        check_exp::<F<4>>();
-        #[cfg(target_arch = "x86_64")]
-        {
-            if Level::detect() != Level::Portable {
-                // SAFETY: AVX2+FMA present (checked above).
-                #[target_feature(enable = "avx2,fma")]
-                unsafe fn avx2() {
-                    check_exp::<F8>()
-                }
-                unsafe { avx2() }
-            }
-            if Level::detect() == Level::Avx512 {
-                #[target_feature(enable = "avx512f,avx2,fma")]
-                unsafe fn avx512() {
-                    check_exp::<F16>()
-                }
-                // SAFETY: AVX-512F present (checked above).
-                unsafe { avx512() }
-            }
-        }
+        at_every_level!(check_exp);
     }
 
     /// 2. Masks, selects and NaN rules agree at every level.
     #[test]
     fn t02_masks_and_selects() {
-        check_masks::<F<4>>();
-        #[cfg(target_arch = "x86_64")]
-        {
-            if Level::detect() != Level::Portable {
-                #[target_feature(enable = "avx2,fma")]
-                unsafe fn avx2() {
-                    check_masks::<F8>()
-                }
-                // SAFETY: AVX2+FMA present (checked above).
-                unsafe { avx2() }
-            }
-            if Level::detect() == Level::Avx512 {
-                #[target_feature(enable = "avx512f,avx2,fma")]
-                unsafe fn avx512() {
-                    check_masks::<F16>()
-                }
-                // SAFETY: AVX-512F present (checked above).
-                unsafe { avx512() }
+        at_every_level!(check_masks);
+    }
+
+    /// Worst errors of the special functions against f64: atan2 (absolute),
+    /// wrap_pi (absolute), I0 by series and e^{-x} I0 by the large-argument
+    /// polynomial (relative, against `math::i0e`, itself a few ulps from
+    /// scipy's `ive`).
+    fn check_special<V: Lanes>() {
+        let mut buf = vec![0.0f32; V::N];
+        let mut at = |v: V| {
+            v.store(&mut buf);
+            buf[0] as f64
+        };
+        // atan2 on a ring of directions and on the axes (signed zeros too).
+        let mut worst = 0.0f64;
+        for k in 0..20_000 {
+            let a = -std::f64::consts::PI + std::f64::consts::TAU * (k as f64 + 0.5) / 20_000.0;
+            for r in [1e-30, 1e-3, 1.0, 1e30] {
+                let (y, x) = ((r * a.sin()) as f32, (r * a.cos()) as f32);
+                let got = at(atan2(V::splat(y), V::splat(x)));
+                worst = worst.max((got - (y as f64).atan2(x as f64)).abs());
             }
         }
+        assert!(worst < 3e-7, "atan2 worst absolute error {worst}");
+        for (y, x, want) in [
+            (0.0f32, 1.0f32, 0.0f64),
+            (1.0, 0.0, std::f64::consts::FRAC_PI_2),
+            (0.0, -1.0, std::f64::consts::PI),
+            (-1.0, 0.0, -std::f64::consts::FRAC_PI_2),
+            (0.0, 0.0, 0.0),
+        ] {
+            assert!((at(atan2(V::splat(y), V::splat(x))) - want).abs() < 3e-7);
+        }
+        assert!(at(atan2(V::splat(f32::NAN), V::splat(1.0))).is_nan());
+        assert!(at(atan2(V::splat(1.0), V::splat(f32::NAN))).is_nan());
+        // wrap_pi over the range the kernels use (|x| ≤ 5π).
+        let mut worst = 0.0f64;
+        for k in 0..20_001 {
+            let x = (-5.0 * std::f64::consts::PI
+                + 10.0 * std::f64::consts::PI * k as f64 / 20_000.0) as f32;
+            let got = at(wrap_pi(V::splat(x)));
+            let want = (x as f64 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            // The same angle, up to the wrap at ±π.
+            let d = (got - want).abs();
+            let d = d.min((d - std::f64::consts::TAU).abs());
+            worst = worst.max(d);
+            assert!(got.abs() <= std::f64::consts::PI + 1e-6, "{x} -> {got}");
+        }
+        assert!(worst < 1e-6, "wrap_pi worst absolute error {worst}");
+        // I0: series below the switch, large-argument polynomial above.
+        let mut worst = 0.0f64;
+        for k in 0..=30_000 {
+            let x = 60.0 * k as f64 / 30_000.0;
+            let x = if k == 30_000 { 1e6 } else { x };
+            let xf = V::splat(x as f32);
+            let got = if (x as f32) <= I0_SWITCH {
+                at(i0_series(xf * xf * 0.25)) * (-(x as f32 as f64)).exp()
+            } else {
+                at(i0e_large(xf))
+            };
+            let want = crate::math::i0e(x as f32 as f64);
+            worst = worst.max((got / want - 1.0).abs());
+        }
+        assert!(worst < 1e-6, "i0 worst relative error {worst}");
+    }
+
+    /// 3. Vector atan2, wrap_pi and I0 against f64 at every level.
+    #[test]
+    fn t03_special_functions_match_f64() {
+        at_every_level!(check_special);
     }
 }

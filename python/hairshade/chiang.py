@@ -136,7 +136,14 @@ class ChiangHair:
         return out[0] if single else out
 
     def eval(self, wi: object, wo: object) -> np.ndarray:
-        """BSDF value (cosine included, as Mitsuba): (N,3),(N,3) -> (N,3)."""
+        """BSDF value (cosine included, as Mitsuba): (N,3),(N,3) -> (N,3).
+
+        float64 runs the scalar kernel. float32 with ``i0="exact"`` runs the
+        vector kernel (AVX-512, AVX2 or portable, chosen at run time): within
+        f32 rounding of the f64 result (relative L2 6e-7, at most 1.2e-5
+        relative over 2^20 random pairs, as the scalar f32 kernel's 1.0e-5).
+        A ``wi`` exactly along the tangent has no azimuth; the vector kernel
+        takes phi_i = pi/2 there, the scalar one atan2(0, 0) = 0."""
         return self._rgb("eval", wi, wo)
 
     def eval_far(self, wi: object, wo: object) -> np.ndarray:

@@ -49,6 +49,8 @@
 //! `I0Mode::Mitsuba` reproduces Mitsuba's truncated series, its switch to
 //! an asymptotic `log I0` at 12 and its `κ > 10` branch, constants included.
 
+pub(crate) mod simd;
+
 use crate::fiber::frame::{azimuth, from_angles, offset, sin_cos_theta, Vec3};
 use crate::fiber::lobes::{deon_mp, deon_mp_mitsuba};
 use crate::fiber::{param_error, ParamError};
@@ -271,6 +273,11 @@ impl<T: Real> ChiangHair<T> {
     /// Logistic scale of the azimuthal term.
     pub fn logistic_scale(&self) -> T {
         self.s
+    }
+
+    /// How the longitudinal term evaluates I0.
+    pub fn i0_mode(&self) -> I0Mode {
+        self.i0
     }
 
     /// `(sin θi', cos θi')`: θi tilted by the cuticle scales for lobe `p`.

@@ -65,6 +65,23 @@ fn rgb_pairs<'py, T: Real + Element>(
     Ok(PyArray1::from_vec(py, out))
 }
 
+/// `(N, 3)` RGB output of a whole-batch function of two direction arrays.
+fn rgb_batch<'py, T: Real + Element>(
+    py: Python<'py>,
+    wi: PyReadonlyArray1<'py, T>,
+    wo: PyReadonlyArray1<'py, T>,
+    f: impl Fn(&[T], &[T], &mut [T]) + Sync + Send,
+) -> PyResult<Bound<'py, PyArray1<T>>> {
+    let (a, b) = (slice(&wi, "wi")?, slice(&wo, "wo")?);
+    let n = pairs(a, b)?;
+    let out = without_gil(py, || {
+        let mut out = vec![T::ZERO; 3 * n];
+        f(a, b, &mut out);
+        out
+    });
+    Ok(PyArray1::from_vec(py, out))
+}
+
 fn lobes_pairs<'py, T: Real + Element>(
     py: Python<'py>,
     wi: PyReadonlyArray1<'py, T>,
@@ -204,7 +221,9 @@ impl PyChiangHair {
         wi: PyReadonlyArray1<'py, f32>,
         wo: PyReadonlyArray1<'py, f32>,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        rgb_pairs(py, wi, wo, |a, b| self.m32.eval(a, b))
+        rgb_batch(py, wi, wo, |a, b, o| {
+            crate::batch::chiang_eval(&self.m32, a, b, o)
+        })
     }
     fn eval_f64<'py>(
         &self,
@@ -212,7 +231,9 @@ impl PyChiangHair {
         wi: PyReadonlyArray1<'py, f64>,
         wo: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        rgb_pairs(py, wi, wo, |a, b| self.m64.eval(a, b))
+        rgb_batch(py, wi, wo, |a, b, o| {
+            crate::batch::chiang_eval(&self.m64, a, b, o)
+        })
     }
     fn eval_far_f32<'py>(
         &self,

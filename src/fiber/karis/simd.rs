@@ -17,7 +17,7 @@
 
 use super::{Absorption, KarisHair};
 use crate::batch::KarisInputs;
-use crate::simd::{Lanes, Level, F};
+use crate::simd::{dot, load, load_dir, store, Lanes, Level, F};
 #[cfg(target_arch = "x86_64")]
 use crate::simd::{F16, F8};
 
@@ -98,11 +98,6 @@ fn saturate<V: Lanes>(x: V) -> V {
 }
 
 #[inline(always)]
-fn dot<V: Lanes>(a: &[V; 3], b: &[V; 3]) -> V {
-    a[0].mul_add(b[0], a[1].mul_add(b[1], a[2] * b[2]))
-}
-
-#[inline(always)]
 fn one_minus<V: Lanes>(x: V) -> V {
     V::splat(1.0) - x
 }
@@ -112,60 +107,6 @@ fn schlick<V: Lanes>(k: &Consts, x: V) -> V {
     saturate(one_minus(x))
         .pow5()
         .mul_add(V::splat(1.0 - k.f0), V::splat(k.f0))
-}
-
-/// Lanes `base..base+count` (`count ≤ N`) of a flat array of `W`-wide
-/// records (or of its one broadcast record), de-interleaved; lanes past
-/// `count` are 0.
-#[inline(always)]
-fn load<V: Lanes, const W: usize>(a: &[f32], base: usize, count: usize) -> [V; W] {
-    if a.len() == W {
-        return std::array::from_fn(|c| V::splat(a[c]));
-    }
-    let mut buf = [[0.0f32; 16]; W];
-    let s = &a[W * base..W * (base + count)];
-    for j in 0..count.min(16) {
-        for c in 0..W {
-            buf[c][j] = s[W * j + c];
-        }
-    }
-    std::array::from_fn(|c| V::load(&buf[c]))
-}
-
-/// Directions as [`load`], normalized as `frame::normalized`; lanes past
-/// `count` and degenerate directions are masked off.
-#[inline(always)]
-fn load_dir<V: Lanes>(a: &[f32], base: usize, count: usize) -> ([V; 3], V::Mask) {
-    let w = load::<V, 3>(a, base, count);
-    let d = dot(&w, &w);
-    let ok = w[0].is_finite() & w[1].is_finite() & w[2].is_finite();
-    // |w|² in the normal range in every lane (almost always): one square
-    // root; otherwise scale by the largest component first.
-    if V::all(d.gt(V::splat(1e-30)) & d.lt(V::splat(1e30))) {
-        let inv = V::splat(1.0) / d.sqrt();
-        return (w.map(|x| x * inv), ok);
-    }
-    let m = w[0].abs().max(w[1].abs()).max(w[2].abs());
-    let ok = ok & m.gt(V::splat(0.0));
-    let inv_m = V::splat(1.0) / m;
-    let s = w.map(|x| x * inv_m);
-    let inv = V::splat(1.0) / dot(&s, &s).sqrt();
-    (s.map(|x| x * inv), ok)
-}
-
-/// Writes lanes `..count` of `W`-wide records into `o` (`o.len() == W·count`).
-#[inline(always)]
-fn store<V: Lanes, const W: usize>(o: &mut [f32], x: &[V; W], count: usize) {
-    let mut buf = [[0.0f32; 16]; W];
-    for c in 0..W {
-        x[c].store(&mut buf[c]);
-    }
-    let o = &mut o[..W * count];
-    for j in 0..count.min(16) {
-        for c in 0..W {
-            o[W * j + c] = buf[c][j];
-        }
-    }
 }
 
 /// R, TT, TRT, MS of `V::N` pairs (each RGB; with `LOBES = false` only
@@ -211,8 +152,17 @@ fn lobes<
     let p = ((cos_v + 1.0) * (cos_l + 1.0)).sqrt() * 2.0;
     let cos_theta_d = p * 0.25 + sin_v * sin_l / p;
     let inv_cos_theta_d = V::splat(1.0) / cos_theta_d;
-    let lp = [0, 1, 2].map(|c| l[c] - sin_l * t[c]);
-    let vp = [0, 1, 2].map(|c| v[c] - sin_v * t[c]);
+    // (Arrays built without closures: see `simd::load_dir`.)
+    let lp = [
+        l[0] - sin_l * t[0],
+        l[1] - sin_l * t[1],
+        l[2] - sin_l * t[2],
+    ];
+    let vp = [
+        v[0] - sin_v * t[0],
+        v[1] - sin_v * t[1],
+        v[2] - sin_v * t[2],
+    ];
     // cos φ = lp·vp / √D, D = |lp|²|vp|² + 1e-4 (UE's guard). Near φ = π,
     // 1 + cos φ cancels; there it is (√D + lp·vp)/√D with the numerator
     // rewritten by Lagrange's identity, D − (lp·vp)² = |lp × vp|² + 1e-4:
@@ -320,7 +270,7 @@ fn lobes<
         // Kajiya-Kay term with the fake normal n = normalize(V − T(T·V)).
         let kajiya = one_minus(dot(&t, &l).abs());
         let vt = dot(&v, &t);
-        let fake = [0, 1, 2].map(|c| v[c] - t[c] * vt);
+        let fake = [v[0] - t[0] * vt, v[1] - t[1] * vt, v[2] - t[2] * vt];
         let len = dot(&fake, &fake).sqrt();
         let n_dot_l = V::select(len.gt(zero), dot(&fake, &l) / len, zero);
         let nol = saturate((n_dot_l + 1.0) * 0.25);
@@ -380,10 +330,10 @@ fn run<
             }
             store::<V, 12>(o, &x, count);
         } else {
-            let x = [0, 1, 2].map(|c| {
-                let s = lobes[0][c];
-                V::select(ok & s.is_finite(), s.max(zero), zero)
-            });
+            let mut x = [zero; 3];
+            for (xc, s) in x.iter_mut().zip(lobes[0]) {
+                *xc = V::select(ok & s.is_finite(), s.max(zero), zero);
+            }
             store::<V, 3>(o, &x, count);
         }
         j += count;
@@ -484,18 +434,8 @@ mod tests {
     use super::super::{Absorption, Components, KarisParams};
     use crate::batch::{karis_eval_simd, KarisInputs};
     use crate::fiber::karis::{KarisHair, Transmittance};
+    use crate::simd::testing::{directions, levels, unit64};
     use crate::simd::Level;
-
-    fn directions(n: usize, seed: u64) -> Vec<f32> {
-        let mut s = seed;
-        let mut next = move || {
-            s ^= s >> 12;
-            s ^= s << 25;
-            s ^= s >> 27;
-            (s.wrapping_mul(0x2545F4914F6CDD1D) >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
-        (0..3 * n).map(|_| next()).collect()
-    }
 
     /// 1. The vector kernel at every level this CPU has, against the scalar
     ///    kernel in f64, for every absorption, component set, separable R
@@ -527,11 +467,6 @@ mod tests {
             local_scattering: &ls,
             opaque_visibility: &ov,
         };
-        let unit64 = |a: &[f32], i: usize| {
-            let w = [a[3 * i] as f64, a[3 * i + 1] as f64, a[3 * i + 2] as f64];
-            let len = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-            w.map(|x| x / len)
-        };
         let mut cases = Vec::new();
         for absorption in [
             Absorption::Legacy,
@@ -559,13 +494,7 @@ mod tests {
                 }
             }
         }
-        let mut levels = vec![Level::Portable];
-        if Level::detect() != Level::Portable {
-            levels.push(Level::Avx2);
-        }
-        if Level::detect() == Level::Avx512 {
-            levels.push(Level::Avx512);
-        }
+        let levels = levels();
         for p in &cases {
             let m32: KarisHair<f32> = p.build().unwrap();
             let m64: KarisHair<f64> = p.build().unwrap();
