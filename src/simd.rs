@@ -408,16 +408,27 @@ pub(crate) fn load_dir<V: Lanes>(a: &[f32], base: usize, count: usize) -> ([V; 3
     // root; otherwise scale by the largest component first.
     // (No closures here or in the kernels: a closure is compiled without
     // the caller's target features, and its intrinsics become calls.)
-    if V::all(d.gt(V::splat(1e-30)) & d.lt(V::splat(1e30))) {
-        let inv = V::splat(1.0) / d.sqrt();
-        return ([w[0] * inv, w[1] * inv, w[2] * inv], ok);
+    // A lane's result depends on that lane alone (not on which path its
+    // neighbours need), so a direction normalizes the same in any batch.
+    let normal = d.gt(V::splat(1e-30)) & d.lt(V::splat(1e30));
+    let inv = V::splat(1.0) / d.sqrt();
+    let fast = [w[0] * inv, w[1] * inv, w[2] * inv];
+    if V::all(normal) {
+        return (fast, ok);
     }
     let m = w[0].abs().max(w[1].abs()).max(w[2].abs());
     let ok = ok & m.gt(V::splat(0.0));
     let inv_m = V::splat(1.0) / m;
     let s = [w[0] * inv_m, w[1] * inv_m, w[2] * inv_m];
     let inv = V::splat(1.0) / dot(&s, &s).sqrt();
-    ([s[0] * inv, s[1] * inv, s[2] * inv], ok)
+    (
+        [
+            V::select(normal, fast[0], s[0] * inv),
+            V::select(normal, fast[1], s[1] * inv),
+            V::select(normal, fast[2], s[2] * inv),
+        ],
+        ok,
+    )
 }
 
 /// Writes lanes `..count` of `W`-wide records into `o` (`o.len() == W·count`).

@@ -453,3 +453,32 @@ def test_20_no_shadow_map_for_a_light_culled_everywhere():
     d["lights"][-1]["intensity"] = [50.0, 50.0, 50.0]
     _, sf = hs.render(hs.Scene.from_dict(d), reuse_shadow_maps=False, return_stats=True)
     assert sf["shadow_maps_skipped"] == 0
+
+
+def test_21_frustum_culling_is_exact():
+    """Dropping segments that reach no pixel (and, shading per vertex, not
+    shading their vertices) changes nothing: a close-up that leaves most of
+    the head off screen, and a camera inside the hair (segments clipped by
+    the near plane, their end radiance interpolated), per vertex and per
+    pixel, bit-identical with culling off."""
+    d = json.loads((EXAMPLES / "strand_head.json").read_text())
+    d["hair"]["generate"]["strands"] = 3000
+    close_up = json.loads(json.dumps(d))
+    close_up["camera"]["fov"] = 8.0
+    inside = json.loads(json.dumps(d))
+    inside["camera"]["position"] = [0.55, 0.1, 0.0]  # in the hair, beside the scalp
+    inside["camera"]["target"] = [0.55, 0.1, -1.0]
+    for scene_dict in (close_up, inside):
+        s = hs.Scene.from_dict(scene_dict)
+        all_segments = len(s.points) - (len(s.offsets) - 1)
+        for shading in ("vertex", "pixel"):
+            a, sa = hs.render(s, width=160, height=90, shading=shading, return_stats=True)
+            b, sb = hs.render(s, width=160, height=90, shading=shading, frustum_culling=False, return_stats=True)
+            np.testing.assert_array_equal(a, b)
+            assert sa["segments"] == sb["segments"] and sa["segments_visible"] == sb["segments_visible"]
+            if shading == "vertex":
+                assert 0 < sa["vertices_shaded"] < sb["vertices_shaded"] == len(s.points)
+        if scene_dict is inside:
+            # Segments wholly behind the camera are gone, so some straddle
+            # the near plane and are clipped.
+            assert 0 < sa["segments"] < all_segments

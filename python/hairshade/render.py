@@ -20,6 +20,7 @@ def render(
     transparency: str | None = None,
     layers: int | None = None,
     shading: str | None = None,
+    frustum_culling: bool = True,
     opaque_culling: bool = True,
     skip_unused: bool = True,
     reuse_shadow_maps: bool = True,
@@ -32,7 +33,10 @@ def render(
     ``width``/``height`` override the scene's resolution (if only one is
     given the other follows the scene's aspect ratio); ``transparency``
     ("mlab" or "sorted"), ``layers`` and ``shading`` ("pixel" or "vertex")
-    override the scene's render settings. ``opaque_culling`` skips hair
+    override the scene's render settings. ``frustum_culling`` drops strand
+    segments that reach no pixel before shading them (per-vertex shading
+    then shades only the vertices of the remaining segments; exact: the
+    image is identical). ``opaque_culling`` skips hair
     behind a tile's farthest opaque surface (an exact skip: the image is
     identical; off only to measure it). ``skip_unused`` compiles out model
     terms that cannot contribute (KarisHair's MS block at Scatter 0; exact)
@@ -112,6 +116,7 @@ def render(
             skip_unused,
             reuse_shadow_maps,
             float(light_cull_threshold),
+            frustum_culling,
         )
     finally:
         if show:

@@ -850,7 +850,7 @@ fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<crate::raster::scene::Ca
 /// given, is called with (tiles done, tiles total) about 10 times a second;
 /// Ctrl-C stops the render and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true, triangles=None, skip_unused=true, reuse_shadow_maps=true, light_cull_threshold=1e-4))]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true, triangles=None, skip_unused=true, reuse_shadow_maps=true, light_cull_threshold=1e-4, frustum_culling=true))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -877,6 +877,7 @@ fn render<'py>(
     skip_unused: bool,
     reuse_shadow_maps: bool,
     light_cull_threshold: f32,
+    frustum_culling: bool,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     use crate::raster::scene::*;
     use glam::Vec3;
@@ -1027,6 +1028,7 @@ fn render<'py>(
         pcf_radius,
         background: background.into(),
         vertex_shading,
+        frustum_culling,
         opaque_culling,
         skip_unused,
         reuse_shadow_maps,
@@ -1077,6 +1079,7 @@ fn render<'py>(
     let d = pyo3::types::PyDict::new(py);
     d.set_item("segments", stats.segments)?;
     d.set_item("segments_visible", stats.segments_visible)?;
+    d.set_item("vertices_shaded", stats.vertices_shaded)?;
     d.set_item("fragments", stats.fragments)?;
     d.set_item("non_finite_pixels", stats.non_finite_pixels)?;
     d.set_item("culled_behind_opaque", stats.culled_behind_opaque)?;

@@ -108,6 +108,11 @@ struct Segment {
     pb: Vec3,
     /// The segment ends at a strand tip (round coverage there), else butt.
     last: bool,
+    /// Index of the strand vertex the segment starts at, and where its
+    /// ends lie between that vertex and the next (0 and 1 unless clipped).
+    i: u32,
+    ta: f32,
+    tb: f32,
     /// Shaded radiance at the ends (per-vertex shading only).
     ca: Vec3,
     cb: Vec3,
@@ -118,6 +123,9 @@ struct Segment {
 pub struct RenderStats {
     pub segments: usize,
     pub segments_visible: usize,
+    /// Strand vertices shaded (per-vertex shading; frustum culling leaves
+    /// out those of segments that reach no pixel).
+    pub vertices_shaded: usize,
     pub fragments: u64,
     pub non_finite_pixels: u64,
     /// Segment or card-triangle visits skipped because the tile's opaque
@@ -177,9 +185,15 @@ fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
     (c, (0.5 * (hi - lo).length()).max(1e-6))
 }
 
-/// Radiance shaded at every strand vertex (tangent: the central difference),
-/// for per-vertex shading.
-fn shade_vertices(scene: &Scene, shader: &Shader<'_>, eye: Vec3) -> Vec<Vec3> {
+/// Radiance shaded at the strand vertices where `needed` is set (all when
+/// `None`; 0 elsewhere), for per-vertex shading. Tangent: the central
+/// difference.
+fn shade_vertices(
+    scene: &Scene,
+    shader: &Shader<'_>,
+    eye: Vec3,
+    needed: Option<&[bool]>,
+) -> Vec<Vec3> {
     let st = &scene.strands;
     let mut owner = vec![0usize; st.points.len()];
     for s in 0..st.strand_count() {
@@ -193,30 +207,53 @@ fn shade_vertices(scene: &Scene, shader: &Shader<'_>, eye: Vec3) -> Vec<Vec3> {
         let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
         (b - a).normalize_or_zero()
     };
-    if let Some(out) = shader.shade_batch(&st.points, &tangent, eye) {
-        return out;
-    }
-    pool().install(|| {
-        (0..st.points.len())
-            .into_par_iter()
-            .map(|i| {
-                let p = st.points[i];
-                shader.shade(p, tangent(i), (eye - p).normalize_or_zero())
+    // The vertices to shade, as indices into the strands' points.
+    let index: Vec<usize> = match needed {
+        Some(m) => (0..st.points.len()).filter(|&i| m[i]).collect(),
+        None => (0..st.points.len()).collect(),
+    };
+    let points: Vec<Vec3> = index.iter().map(|&i| st.points[i]).collect();
+    let shaded = shader
+        .shade_batch(&points, &|j| tangent(index[j]), eye)
+        .unwrap_or_else(|| {
+            pool().install(|| {
+                index
+                    .par_iter()
+                    .map(|&i| {
+                        let p = st.points[i];
+                        shader.shade(p, tangent(i), (eye - p).normalize_or_zero())
+                    })
+                    .collect()
             })
-            .collect()
-    })
+        });
+    if needed.is_none() {
+        return shaded;
+    }
+    let mut out = vec![Vec3::ZERO; st.points.len()];
+    for (&i, c) in index.iter().zip(shaded) {
+        out[i] = c;
+    }
+    out
 }
 
-fn build_segments(scene: &Scene, view: &View, vertex_colors: Option<&[Vec3]>) -> Vec<Segment> {
+/// Projects every strand segment, clipped to the near plane, in parallel
+/// over strands and in scene order, with the number of segments before
+/// culling. With `frustum_culling`, segments that reach no tile (the
+/// binning test [`tile_range`]) are dropped here, before any shading.
+fn build_segments(
+    scene: &Scene,
+    view: &View,
+    tiles: (u32, u32),
+    frustum_culling: bool,
+) -> (Vec<Segment>, usize) {
     let st = &scene.strands;
-    let mut out = Vec::new();
-    for s in 0..st.strand_count() {
+    let project = |s: usize| -> Vec<Segment> {
         let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+        let mut out = Vec::with_capacity(i1.saturating_sub(i0 + 1));
         for i in i0..i1.saturating_sub(1) {
             let (mut pa, mut pb) = (st.points[i], st.points[i + 1]);
             let (mut ra, mut rb) = (st.radii[i], st.radii[i + 1]);
-            let (mut ca, mut cb) =
-                vertex_colors.map_or((Vec3::ZERO, Vec3::ZERO), |c| (c[i], c[i + 1]));
+            let (mut ta, mut tb) = (0.0, 1.0);
             let (mut va, mut vb) = (view.to_view(pa), view.to_view(pb));
             // Clip to the near plane.
             if va.z < view.near && vb.z < view.near {
@@ -226,16 +263,11 @@ fn build_segments(scene: &Scene, view: &View, vertex_colors: Option<&[Vec3]>) ->
                 let t = (view.near - va.z) / (vb.z - va.z);
                 let pc = pa + (pb - pa) * t;
                 let rc = ra + (rb - ra) * t;
-                let cc = ca + (cb - ca) * t;
                 if va.z < view.near {
-                    pa = pc;
-                    ra = rc;
-                    ca = cc;
+                    (pa, ra, ta) = (pc, rc, t);
                     va = view.to_view(pa);
                 } else {
-                    pb = pc;
-                    rb = rc;
-                    cb = cc;
+                    (pb, rb, tb) = (pc, rc, t);
                     vb = view.to_view(pb);
                 }
             }
@@ -250,12 +282,56 @@ fn build_segments(scene: &Scene, view: &View, vertex_colors: Option<&[Vec3]>) ->
                 pa,
                 pb,
                 last: i + 2 == i1,
-                ca,
-                cb,
+                i: i as u32,
+                ta,
+                tb,
+                ca: Vec3::ZERO,
+                cb: Vec3::ZERO,
             });
         }
+        out
+    };
+    let per_strand: Vec<Vec<Segment>> = pool().install(|| {
+        (0..st.strand_count())
+            .into_par_iter()
+            .map(project)
+            .collect()
+    });
+    let total = per_strand.iter().map(Vec::len).sum();
+    let segs = per_strand
+        .into_iter()
+        .flatten()
+        .filter(|s| !frustum_culling || tile_range(s, tiles.0, tiles.1).is_some())
+        .collect();
+    (segs, total)
+}
+
+/// Which strand vertices the segments use (for per-vertex shading).
+fn vertices_used(segs: &[Segment], vertex_count: usize) -> Vec<bool> {
+    let mut used = vec![false; vertex_count];
+    for s in segs {
+        used[s.i as usize] = true;
+        used[s.i as usize + 1] = true;
     }
-    out
+    used
+}
+
+/// Radiance at the segments' ends from the per-vertex radiance (linear
+/// between the two vertices where a segment was clipped).
+fn color_segments(segs: &mut [Segment], colors: &[Vec3]) {
+    for s in segs {
+        let (c0, c1) = (colors[s.i as usize], colors[s.i as usize + 1]);
+        let at = |t: f32| {
+            if t == 0.0 {
+                c0
+            } else if t == 1.0 {
+                c1
+            } else {
+                c0 + (c1 - c0) * t
+            }
+        };
+        (s.ca, s.cb) = (at(s.ta), at(s.tb));
+    }
 }
 
 /// A 2D triangle's signed doubled area and pixel bounding box, for
@@ -867,13 +943,21 @@ pub fn render_with_progress(
     let shadow_ms = ms(t0);
     let t1 = std::time::Instant::now();
     let shader = Shader::new(scene, &shadows, opts.skip_unused, opts.light_cull_threshold);
-    let vertex_colors = opts
-        .vertex_shading
-        .then(|| shade_vertices(scene, &shader, view.eye));
-    let segs = build_segments(scene, &view, vertex_colors.as_deref());
-
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
+    let (mut segs, segment_count) =
+        build_segments(scene, &view, (tiles_x, tiles_y), opts.frustum_culling);
+    let mut vertices_shaded = 0;
+    if opts.vertex_shading {
+        let used = opts
+            .frustum_culling
+            .then(|| vertices_used(&segs, scene.strands.points.len()));
+        vertices_shaded = used.as_ref().map_or(scene.strands.points.len(), |u| {
+            u.iter().filter(|&&x| x).count()
+        });
+        let colors = shade_vertices(scene, &shader, view.eye, used.as_deref());
+        color_segments(&mut segs, &colors);
+    }
     let (bins, visible) = bin_to_tiles(
         segs.iter().map(|s| tile_range(s, tiles_x, tiles_y)),
         tiles_x,
@@ -927,8 +1011,9 @@ pub fn render_with_progress(
 
     let mut data = vec![0.0f32; (w * h * 3) as usize];
     let mut stats = RenderStats {
-        segments: segs.len(),
+        segments: segment_count,
         segments_visible: visible,
+        vertices_shaded,
         shadow_ms,
         shadow_maps_reused,
         shadow_maps_skipped,
@@ -1252,7 +1337,8 @@ mod tests {
     ///    a shadowed directional light, a point light, an SH environment and
     ///    the MS block on: equal to 1e-4 relative + 1e-7 absolute (the
     ///    vector kernel's rounding; `fiber::karis::simd` test 1 bounds it
-    ///    against f64).
+    ///    against f64). Shading a subset of the vertices (frustum culling)
+    ///    gives the same bits for them.
     #[test]
     fn t01_batched_vertex_shading_matches_per_point_shading() {
         let mut points = Vec::new();
@@ -1324,8 +1410,16 @@ mod tests {
             .collect();
         let shader = Shader::new(&scene, &shadows, true, 0.0);
         let eye = scene.camera.position;
-        let batched = shade_vertices(&scene, &shader, eye);
+        let batched = shade_vertices(&scene, &shader, eye, None);
         let st = &scene.strands;
+        // A subset of the vertices shades to the same bits (each SIMD lane
+        // depends on its own inputs only), and the rest to 0.
+        let needed: Vec<bool> = (0..st.points.len()).map(|i| i % 3 != 1).collect();
+        let subset = shade_vertices(&scene, &shader, eye, Some(&needed));
+        for i in 0..st.points.len() {
+            let want = if needed[i] { batched[i] } else { Vec3::ZERO };
+            assert_eq!(subset[i], want, "vertex {i}");
+        }
         let mut shadowed = 0;
         for s in 0..st.strand_count() {
             let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);

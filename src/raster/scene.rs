@@ -181,6 +181,10 @@ pub struct RenderOptions {
     /// Shade strands once per vertex and interpolate along segments
     /// (cards are always shaded per pixel).
     pub vertex_shading: bool,
+    /// Frustum culling: drop strand segments that reach no tile before
+    /// shading them (per-vertex shading then shades only the vertices of
+    /// the remaining segments); exact: such segments are never binned.
+    pub frustum_culling: bool,
     /// Skip hair behind a tile's farthest opaque surface (exact: such hair
     /// fails every pixel's depth test anyway).
     pub opaque_culling: bool,
@@ -208,6 +212,7 @@ impl Default for RenderOptions {
             pcf_radius: 1,
             background: Vec3::ZERO,
             vertex_shading: false,
+            frustum_culling: true,
             opaque_culling: true,
             skip_unused: true,
             reuse_shadow_maps: true,
