@@ -195,11 +195,18 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
     for light in shadowed["lights"][-4:]:
         light["shadows"] = True
     s_shadowed = _scene(shadowed)
+    close = copy.deepcopy(head)
+    close["camera"]["fov"] = 10.0  # a close-up: most of the hair off screen
+    s_close = _scene(close)
     scattered = copy.deepcopy(head)
     scattered["hair"]["material"]["scatter"] = 0.0
     s_scatter0 = _scene(scattered)
     cases = [
         ("skip_unused (MS block at Scatter 0)", s_scatter0, dict(skip_unused=True), dict(skip_unused=False)),
+        ("frustum_culling (close-up, per-vertex shading)", s_close, dict(frustum_culling=True, shading="vertex"),
+         dict(frustum_culling=False, shading="vertex")),
+        ("frustum_culling (close-up, per-pixel shading)", s_close, dict(frustum_culling=True),
+         dict(frustum_culling=False)),
         ("opaque_culling (hair behind the head)", s, dict(opaque_culling=True), dict(opaque_culling=False)),
         ("reuse_shadow_maps (camera moved)", s, dict(reuse_shadow_maps=True), dict(reuse_shadow_maps=False)),
         ("light culling (4 dim far point lights)", s_lit, dict(light_cull_threshold=1e-4),
