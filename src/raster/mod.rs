@@ -521,6 +521,54 @@ fn bin_to_tiles(
     (bins, binned)
 }
 
+/// The pixels of a row that a segment can cover: those whose centers lie
+/// within `r` (the widest half-width plus the half-pixel filter) of the
+/// segment's line, widened by one pixel against rounding. Conservative:
+/// [`coverage`] still decides every pixel, so the image is the same as
+/// visiting the whole bounding box.
+struct RowSpan {
+    a: [f32; 2],
+    d: [f32; 2],
+    /// `r·|d|`
+    r_len: f32,
+}
+
+impl RowSpan {
+    fn new(s: &Segment, r: f32) -> Self {
+        let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
+        Self {
+            a: s.a,
+            d,
+            r_len: r * (d[0] * d[0] + d[1] * d[1]).sqrt(),
+        }
+    }
+
+    /// Tile-local pixel range `[lo, hi]` within `[bx0, bx1]` of the row
+    /// whose centers have y = `py`, in the tile starting at `x0`; None if empty.
+    #[inline]
+    fn pixels(&self, py: f32, x0: u32, bx0: u32, bx1: u32) -> Option<(u32, u32)> {
+        // |(x − ax) dy − (py − ay) dx| ≤ r|d| bounds x when dy ≠ 0.
+        if self.d[1].abs() < 1e-6 || !self.r_len.is_finite() {
+            return Some((bx0, bx1));
+        }
+        let c = self.a[0] + (py - self.a[1]) * self.d[0] / self.d[1];
+        let half = self.r_len / self.d[1].abs();
+        // Pixel centers x0 + i + 0.5 in [c − half, c + half], ± 1 pixel:
+        // i from ⌊c − half − x0 − 1.5⌋ to ⌈c + half − x0 + 0.5⌉. Clamped to
+        // the box (i ≥ 0), truncation stands in for ⌊⌋ and truncation + 1
+        // for ⌈⌉ (wider by at most a pixel; the baseline ISA has no
+        // rounding instruction and floor/ceil are calls).
+        let lo = c - half - x0 as f32 - 1.5;
+        let hi = c + half - x0 as f32 + 0.5;
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Some((bx0, bx1));
+        }
+        let lo = (lo.clamp(0.0, 1e6) as u32).max(bx0);
+        let hi = (hi.clamp(-1.0, 1e6) as i64 + 1).min(bx1 as i64);
+        (hi >= lo as i64).then_some((lo, hi as u32))
+    }
+}
+
 /// Coverage of pixel center `p` by segment `s`, and the screen parameter t.
 #[inline]
 fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
@@ -1127,9 +1175,9 @@ fn render_tile(
 
     // Fragments: each segment visits only the pixels of its bounding box, in
     // scene order (so every pixel sees its fragments in a fixed order).
-    let mut mlab: Vec<Mlab> = match opts.transparency {
-        Transparency::Mlab(k) => (0..n).map(|_| Mlab::new(k)).collect(),
-        Transparency::Sorted => Vec::new(),
+    let mut mlab = match opts.transparency {
+        Transparency::Mlab(k) => Mlab::new(n, k),
+        Transparency::Sorted => Mlab::new(0, 1),
     };
     let mut lists: Vec<Vec<Fragment>> = match opts.transparency {
         Transparency::Sorted => vec![Vec::new(); n],
@@ -1196,10 +1244,15 @@ fn render_tile(
             continue;
         }
         let tangent = (s.pb - s.pa).normalize_or_zero();
+        let span = RowSpan::new(s, pad - 0.5);
         for j in by0..=by1 as u32 {
-            for i in bx0..=bx1 as u32 {
+            let py = (y0 + j) as f32 + 0.5;
+            let Some((lo, hi)) = span.pixels(py, x0, bx0, bx1 as u32) else {
+                continue;
+            };
+            for i in lo..=hi {
                 let k = (j * TILE + i) as usize;
-                let p = [(x0 + i) as f32 + 0.5, (y0 + j) as f32 + 0.5];
+                let p = [(x0 + i) as f32 + 0.5, py];
                 let Some((cov, t)) = coverage(s, p) else {
                     continue;
                 };
@@ -1224,7 +1277,7 @@ fn render_tile(
                 };
                 frags += 1;
                 match opts.transparency {
-                    Transparency::Mlab(_) => mlab[k].insert(frag),
+                    Transparency::Mlab(_) => mlab.insert(k, frag),
                     Transparency::Sorted => lists[k].push(frag),
                 }
             }
@@ -1278,7 +1331,7 @@ fn render_tile(
                 };
                 frags += 1;
                 match opts.transparency {
-                    Transparency::Mlab(_) => mlab[k].insert(frag),
+                    Transparency::Mlab(_) => mlab.insert(k, frag),
                     Transparency::Sorted => lists[k].push(frag),
                 }
             }
@@ -1291,7 +1344,7 @@ fn render_tile(
         for i in 0..tw {
             let k = (j * TILE + i) as usize;
             let col = match opts.transparency {
-                Transparency::Mlab(_) => mlab[k].resolve(base[k]),
+                Transparency::Mlab(_) => mlab.resolve(k, base[k]),
                 Transparency::Sorted => oit::resolve_sorted(&mut lists[k], base[k]),
             };
             if col.is_finite() {

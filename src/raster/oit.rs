@@ -14,36 +14,65 @@ pub struct Fragment {
     pub transmittance: f32,
 }
 
-/// MLAB with `k` layers kept sorted by depth; a fragment that would make
-/// k + 1 merges the two farthest (color over color, transmittances multiplied).
+/// MLAB with `k` layers per pixel kept sorted by depth, for all pixels of
+/// a tile in one allocation (pixel `px` owns slots `px·(k+1) ..`); a
+/// fragment that would make k + 1 merges the two farthest (color over
+/// color, transmittances multiplied).
 #[derive(Debug, Clone)]
 pub struct Mlab {
-    layers: Vec<Fragment>,
     k: usize,
+    layers: Vec<Fragment>,
+    len: Vec<u8>,
 }
 
 impl Mlab {
-    pub fn new(k: usize) -> Self {
+    /// Empty layers for `pixels` pixels; `k` in 1..=64.
+    pub fn new(pixels: usize, k: usize) -> Self {
+        let k = k.clamp(1, 64);
+        let empty = Fragment {
+            depth: 0.0,
+            color: Vec3::ZERO,
+            transmittance: 1.0,
+        };
         Self {
-            layers: Vec::with_capacity(k + 1),
-            k: k.max(1),
+            k,
+            layers: vec![empty; pixels * (k + 1)],
+            len: vec![0; pixels],
         }
     }
 
-    pub fn insert(&mut self, f: Fragment) {
-        let pos = self.layers.partition_point(|l| l.depth <= f.depth);
-        self.layers.insert(pos, f);
-        if self.layers.len() > self.k {
-            let b = self.layers.pop().expect("k + 1 layers");
-            let a = self.layers.last_mut().expect("k >= 1 layers");
+    /// The layers of pixel `px`, nearest first.
+    pub fn layers(&self, px: usize) -> &[Fragment] {
+        let base = px * (self.k + 1);
+        &self.layers[base..base + self.len[px] as usize]
+    }
+
+    #[inline]
+    pub fn insert(&mut self, px: usize, f: Fragment) {
+        let base = px * (self.k + 1);
+        let n = self.len[px] as usize;
+        let slots = &mut self.layers[base..base + n + 1];
+        // After the layers at the same or a smaller depth (insertion order
+        // on ties): an insertion-sort step, k is small.
+        let mut pos = n;
+        while pos > 0 && slots[pos - 1].depth > f.depth {
+            slots[pos] = slots[pos - 1];
+            pos -= 1;
+        }
+        slots[pos] = f;
+        if n + 1 > self.k {
+            let b = slots[n];
+            let a = &mut slots[n - 1];
             a.color += b.color * a.transmittance;
             a.transmittance *= b.transmittance;
+        } else {
+            self.len[px] = (n + 1) as u8;
         }
     }
 
-    /// Front-to-back composite over `background`.
-    pub fn resolve(&self, background: Vec3) -> Vec3 {
-        composite(self.layers.iter(), background)
+    /// Front-to-back composite of pixel `px` over `background`.
+    pub fn resolve(&self, px: usize, background: Vec3) -> Vec3 {
+        composite(self.layers(px).iter(), background)
     }
 }
 
@@ -82,28 +111,32 @@ mod tests {
             frag(1.0, 0.9, 0.3),
             frag(2.0, 0.5, 0.7),
         ];
-        let mut m = Mlab::new(4);
+        let mut m = Mlab::new(3, 4);
         for f in fs {
-            m.insert(f);
+            m.insert(1, f);
         }
         let mut v = fs.to_vec();
         let exact = resolve_sorted(&mut v, Vec3::splat(0.1));
-        assert!((m.resolve(Vec3::splat(0.1)) - exact).abs().max_element() < 1e-7);
+        assert!((m.resolve(1, Vec3::splat(0.1)) - exact).abs().max_element() < 1e-7);
+        // The neighbouring pixels are untouched.
+        assert!(m.layers(0).is_empty() && m.layers(2).is_empty());
     }
 
     #[test]
     fn t02_mlab_merge_keeps_total_transmittance() {
-        let mut m = Mlab::new(2);
+        let mut m = Mlab::new(1, 2);
         let fs: Vec<Fragment> = (0..10).map(|i| frag(10.0 - i as f32, 0.3, 0.2)).collect();
         for f in &fs {
-            m.insert(*f);
+            m.insert(0, *f);
         }
         // With a black background and equal colors, the opacity is order independent.
         let mut v = fs.clone();
         let exact = resolve_sorted(&mut v, Vec3::ONE);
-        let approx = m.resolve(Vec3::ONE);
+        let approx = m.resolve(0, Vec3::ONE);
         let t_exact: f32 = fs.iter().map(|f| f.transmittance).product();
-        assert!((m.layers.iter().map(|f| f.transmittance).product::<f32>() - t_exact).abs() < 1e-6);
+        assert!(
+            (m.layers(0).iter().map(|f| f.transmittance).product::<f32>() - t_exact).abs() < 1e-6
+        );
         assert!((approx - exact).abs().max_element() < 0.05);
     }
 }
