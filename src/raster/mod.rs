@@ -667,87 +667,93 @@ impl<'a> Shader<'a> {
         }
     }
 
-    /// [`Self::shade`] for many points at once, for KarisHair: per light,
-    /// the directions, irradiance and shadow-map visibility per point, then
-    /// one call of the vector kernel over all points (`None` for other
-    /// models). Equal to `shade` up to the vector kernel's rounding.
+    /// Whether [`Self::shade_batch`] and [`Self::shade_serial`] serve this
+    /// model (KarisHair on the vector kernel).
+    fn batches(&self) -> bool {
+        matches!(&self.hair, HairShading::Karis(k) if !k.fast_asin())
+    }
+
+    /// [`Self::shade`] for many points at once, in parallel chunks of
+    /// [`Self::shade_serial`] (`None` unless [`Self::batches`]).
     fn shade_batch(
         &self,
         points: &[Vec3],
         tangent: &(dyn Fn(usize) -> Vec3 + Sync),
         eye: Vec3,
     ) -> Option<Vec<Vec3>> {
-        use crate::batch::{karis_eval_simd, KarisInputs};
-        let HairShading::Karis(k) = &self.hair else {
-            return None;
-        };
-        if k.fast_asin() {
+        if !self.batches() {
             return None;
         }
+        const CHUNK: usize = 4096;
+        let mut out = vec![Vec3::ZERO; points.len()];
+        pool().install(|| {
+            out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| {
+                let range = c * CHUNK..c * CHUNK + o.len();
+                let t: Vec<Vec3> = range.clone().map(tangent).collect();
+                self.shade_serial(&points[range], &t, eye, o);
+            })
+        });
+        Some(out)
+    }
+
+    /// [`Self::shade`] for `points` with `tangents`, on this thread, for
+    /// KarisHair (requires [`Self::batches`]): per light, the directions,
+    /// irradiance and shadow-map visibility per point, then one call of the
+    /// vector kernel over all points; the environment likewise. Equal to
+    /// `shade` up to the vector kernel's rounding.
+    fn shade_serial(&self, points: &[Vec3], tangents: &[Vec3], eye: Vec3, out: &mut [Vec3]) {
+        use crate::batch::KarisInputs;
+        use crate::fiber::karis::simd::eval_range;
+        let HairShading::Karis(k) = &self.hair else {
+            unreachable!("shade_serial without a KarisHair model");
+        };
         let n = points.len();
         let level = crate::simd::Level::detect();
-        let flat = |f: &(dyn Fn(usize) -> Vec3 + Sync)| -> Vec<f32> {
-            pool().install(|| {
-                (0..n)
-                    .into_par_iter()
-                    .flat_map_iter(|i| f(i).to_array())
-                    .collect()
-            })
-        };
-        let t = flat(tangent);
-        let v = flat(&|i| (eye - points[i]).normalize_or_zero());
-        let mut out = vec![Vec3::ZERO; n];
+        let t: Vec<f32> = tangents.iter().flat_map(|x| x.to_array()).collect();
+        let v: Vec<f32> = points
+            .iter()
+            .flat_map(|p| (eye - *p).normalize_or_zero().to_array())
+            .collect();
+        out.fill(Vec3::ZERO);
         let mut f = vec![0.0f32; 3 * n];
+        let mut l = vec![0.0f32; 3 * n];
+        let mut shadow = vec![0.0f32; n];
+        let mut irradiance = vec![Vec3::ZERO; n];
         for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
             // per point: direction, irradiance, visibility (0 where culled)
-            let per: Vec<(Vec3, Vec3, f32)> = pool().install(|| {
-                (0..n)
-                    .into_par_iter()
-                    .map(|i| {
-                        let (l, e) = light.incident(points[i]);
-                        if self.culls(e) {
-                            return (l, Vec3::ZERO, 0.0);
-                        }
-                        let vis = sm.as_ref().map_or(1.0, |m| m.visibility(points[i]));
-                        (l, e, vis)
-                    })
-                    .collect()
-            });
-            let l: Vec<f32> = per.iter().flat_map(|p| p.0.to_array()).collect();
-            let shadow: Vec<f32> = per.iter().map(|p| p.2).collect();
+            for (i, p) in points.iter().enumerate() {
+                let (li, e) = light.incident(*p);
+                l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
+                (irradiance[i], shadow[i]) = if self.culls(e) {
+                    (Vec3::ZERO, 0.0)
+                } else {
+                    (e, sm.as_ref().map_or(1.0, |m| m.visibility(*p)))
+                };
+            }
             let inp = KarisInputs {
                 shadow: &shadow,
                 ..KarisInputs::directions(&l, &v, &t)
             };
-            karis_eval_simd::<false>(k, &inp, &mut f, level);
-            for (i, (o, p)) in out.iter_mut().zip(&per).enumerate() {
-                if p.2 > 0.0 {
-                    *o += Vec3::new(f[3 * i], f[3 * i + 1], f[3 * i + 2]) * p.1 * p.2;
+            eval_range::<false>(k, &inp, 0, &mut f, level);
+            for (i, o) in out.iter_mut().enumerate() {
+                if shadow[i] > 0.0 {
+                    *o += Vec3::from_slice(&f[3 * i..]) * irradiance[i] * shadow[i];
                 }
             }
         }
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             // L = the fake normal n = normalize(V − T(T·V)); π · SH(n)⁺ · f
-            let (ln, rad): (Vec<Vec3>, Vec<Vec3>) = pool().install(|| {
-                (0..n)
-                    .into_par_iter()
-                    .map(|i| {
-                        let (vi, ti) =
-                            (Vec3::from_slice(&v[3 * i..]), Vec3::from_slice(&t[3 * i..]));
-                        let nn = (vi - ti * ti.dot(vi)).normalize_or_zero();
-                        let r = Vec3::from(sh9_eval(&env.sh, &nn.to_array())).max(Vec3::ZERO);
-                        (nn, r)
-                    })
-                    .unzip()
-            });
-            let ln: Vec<f32> = ln.iter().flat_map(|x| x.to_array()).collect();
-            karis_eval_simd::<false>(m, &KarisInputs::directions(&ln, &v, &t), &mut f, level);
+            for i in 0..n {
+                let (vi, ti) = (Vec3::from_slice(&v[3 * i..]), tangents[i]);
+                let nn = (vi - ti * ti.dot(vi)).normalize_or_zero();
+                l[3 * i..3 * i + 3].copy_from_slice(&nn.to_array());
+                irradiance[i] = Vec3::from(sh9_eval(&env.sh, &nn.to_array())).max(Vec3::ZERO);
+            }
+            eval_range::<false>(m, &KarisInputs::directions(&l, &v, &t), 0, &mut f, level);
             for (i, o) in out.iter_mut().enumerate() {
-                *o +=
-                    Vec3::new(f[3 * i], f[3 * i + 1], f[3 * i + 2]) * rad[i] * std::f32::consts::PI;
+                *o += Vec3::from_slice(&f[3 * i..]) * irradiance[i] * std::f32::consts::PI;
             }
         }
-        Some(out)
     }
 
     /// The light-culling threshold for opaque diffuse surfaces: the hair's
@@ -1184,6 +1190,11 @@ fn render_tile(
         Transparency::Mlab(_) => Vec::new(),
     };
     let mut frags = 0u64;
+    // Per-pixel shading on the vector kernel: the tile's hair fragments are
+    // collected (in the order they are produced), shaded in one batch, then
+    // composited in that same order (MLAB depends on it).
+    let deferred = !opts.vertex_shading && ctx.shader.batches();
+    let mut pending = Pending::default();
     // Opaque mesh triangles: nearest depth and diffuse shading per pixel.
     for &si in ctx.solid_bin {
         let t = &ctx.solids[si as usize];
@@ -1264,6 +1275,11 @@ fn render_tile(
                 }
                 let tw_ = (t / s.zb) / inv;
                 let pw = s.pa + (s.pb - s.pa) * tw_;
+                frags += 1;
+                if deferred {
+                    pending.push(k, depth, cov, pw, tangent);
+                    continue;
+                }
                 let c = if opts.vertex_shading {
                     s.ca + (s.cb - s.ca) * tw_
                 } else {
@@ -1275,7 +1291,6 @@ fn render_tile(
                     color: c * cov,
                     transmittance: 1.0 - cov,
                 };
-                frags += 1;
                 match opts.transparency {
                     Transparency::Mlab(_) => mlab.insert(k, frag),
                     Transparency::Sorted => lists[k].push(frag),
@@ -1322,6 +1337,11 @@ fn render_tile(
                     continue;
                 }
                 let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
+                frags += 1;
+                if deferred {
+                    pending.push(k, depth, alpha, pw, t.tangent);
+                    continue;
+                }
                 let view_dir = (view.eye - pw).normalize_or_zero();
                 let c = ctx.shader.shade(pw, t.tangent, view_dir);
                 let frag = Fragment {
@@ -1329,11 +1349,28 @@ fn render_tile(
                     color: c * alpha,
                     transmittance: 1.0 - alpha,
                 };
-                frags += 1;
                 match opts.transparency {
                     Transparency::Mlab(_) => mlab.insert(k, frag),
                     Transparency::Sorted => lists[k].push(frag),
                 }
+            }
+        }
+    }
+
+    if deferred {
+        let mut colors = vec![Vec3::ZERO; pending.k.len()];
+        ctx.shader
+            .shade_serial(&pending.p, &pending.t, view.eye, &mut colors);
+        for (i, c) in colors.into_iter().enumerate() {
+            let (k, alpha) = (pending.k[i] as usize, pending.alpha[i]);
+            let frag = Fragment {
+                depth: pending.depth[i],
+                color: c * alpha,
+                transmittance: 1.0 - alpha,
+            };
+            match opts.transparency {
+                Transparency::Mlab(_) => mlab.insert(k, frag),
+                Transparency::Sorted => lists[k].push(frag),
             }
         }
     }
@@ -1355,6 +1392,28 @@ fn render_tile(
         }
     }
     (out, frags, bad, culled)
+}
+
+/// Hair fragments of a tile awaiting shading: pixel, depth, coverage
+/// (alpha), world position, tangent.
+#[derive(Default)]
+struct Pending {
+    k: Vec<u32>,
+    depth: Vec<f32>,
+    alpha: Vec<f32>,
+    p: Vec<Vec3>,
+    t: Vec<Vec3>,
+}
+
+impl Pending {
+    #[inline]
+    fn push(&mut self, k: usize, depth: f32, alpha: f32, p: Vec3, t: Vec3) {
+        self.k.push(k as u32);
+        self.depth.push(depth);
+        self.alpha.push(alpha);
+        self.p.push(p);
+        self.t.push(t);
+    }
 }
 
 /// Nearest positive ray parameter of a ray-sphere hit.
