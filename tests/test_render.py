@@ -482,3 +482,53 @@ def test_21_frustum_culling_is_exact():
             # Segments wholly behind the camera are gone, so some straddle
             # the near plane and are clipped.
             assert 0 < sa["segments"] < all_segments
+
+
+# A cube of side 0.8 centred at (0, 0, -1.5), behind the single strand.
+CUBE_OBJ = """\
+v -0.4 -0.4 -1.9
+v 0.4 -0.4 -1.9
+v 0.4 0.4 -1.9
+v -0.4 0.4 -1.9
+v -0.4 -0.4 -1.1
+v 0.4 -0.4 -1.1
+v 0.4 0.4 -1.1
+v -0.4 0.4 -1.1
+f 1 4 3 2
+f 5 6 7 8
+f 1 5 8 4
+f 2 3 7 6
+f 1 2 6 5
+f 4 8 7 3
+"""
+
+
+def _cube_scene(tmp_path, obj_text, camera_position):
+    (tmp_path / "cube.obj").write_text(obj_text)
+    d = json.loads((EXAMPLES / "single_strand.json").read_text())
+    d["camera"].update(position=camera_position, target=[0.0, 0.0, 0.0], resolution=[96, 64])
+    d.setdefault("meshes", []).append({"type": "obj", "file": str(tmp_path / "cube.obj"), "albedo": [0.6, 0.5, 0.4]})
+    return hs.Scene.from_dict(d, base_dir=str(EXAMPLES))
+
+
+def test_22_backface_culling_is_exact_and_only_for_closed_meshes_seen_from_outside(tmp_path):
+    """A closed, outward cube seen from outside: its back faces are skipped
+    and the image is bit-identical to drawing every face. The same cube
+    with its faces turned inwards, a camera inside it, or the cube opened
+    (a face removed) keep every face (their back faces can be visible)."""
+    outside = _cube_scene(tmp_path, CUBE_OBJ, [1.5, 1.2, 2.5])
+    a, sa = hs.render(outside, return_stats=True)
+    b, sb = hs.render(outside, backface_culling=False, return_stats=True)
+    np.testing.assert_array_equal(a, b)
+    # A convex cube seen from a general position shows 3 faces: 6 of its 12 triangles face away.
+    assert sa["backfaces_culled"] == 6 and sb["backfaces_culled"] == 0
+    inward = "\n".join(
+        "f " + " ".join(reversed(line.split()[1:])) if line.startswith("f ") else line for line in CUBE_OBJ.splitlines()
+    )
+    opened = "\n".join(CUBE_OBJ.splitlines()[:-1])
+    for obj, eye in ((inward, [1.5, 1.2, 2.5]), (CUBE_OBJ, [0.1, 0.05, -1.4]), (opened, [1.5, 1.2, 2.5])):
+        s = _cube_scene(tmp_path, obj, eye)
+        a, sa = hs.render(s, return_stats=True)
+        b, _ = hs.render(s, backface_culling=False, return_stats=True)
+        np.testing.assert_array_equal(a, b)
+        assert sa["backfaces_culled"] == 0

@@ -21,6 +21,7 @@ def render(
     layers: int | None = None,
     shading: str | None = None,
     frustum_culling: bool = True,
+    backface_culling: bool = True,
     opaque_culling: bool = True,
     skip_unused: bool = True,
     reuse_shadow_maps: bool = True,
@@ -36,7 +37,10 @@ def render(
     override the scene's render settings. ``frustum_culling`` drops strand
     segments that reach no pixel before shading them (per-vertex shading
     then shades only the vertices of the remaining segments; exact: the
-    image is identical). ``opaque_culling`` skips hair
+    image is identical). ``backface_culling`` skips the back faces of OBJ
+    meshes that are closed, consistently oriented outwards, seen from
+    outside and wholly in front of the camera (their back faces are always
+    hidden; other meshes are drawn two-sided). ``opaque_culling`` skips hair
     behind a tile's farthest opaque surface (an exact skip: the image is
     identical; off only to measure it). ``skip_unused`` compiles out model
     terms that cannot contribute (KarisHair's MS block at Scatter 0; exact)
@@ -112,11 +116,13 @@ def render(
             None if not scene.obj_meshes else (
                 np.concatenate([m["triangles"].reshape(-1) for m in scene.obj_meshes]).astype(np.float32),
                 np.concatenate([np.tile(np.asarray(m["albedo"], np.float32), len(m["triangles"])) for m in scene.obj_meshes]),
+                np.concatenate([np.full(len(m["triangles"]), i, np.uint32) for i, m in enumerate(scene.obj_meshes)]),
             ),
             skip_unused,
             reuse_shadow_maps,
             float(light_cull_threshold),
             frustum_culling,
+            backface_culling,
         )
     finally:
         if show:

@@ -850,7 +850,7 @@ fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<crate::raster::scene::Ca
 /// given, is called with (tiles done, tiles total) about 10 times a second;
 /// Ctrl-C stops the render and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true, triangles=None, skip_unused=true, reuse_shadow_maps=true, light_cull_threshold=1e-4, frustum_culling=true))]
+#[pyo3(signature = (camera, lights, environment, points, radii, offsets, spheres, hair, transparency, layers, shadow_map_size, shadow_density, pcf_radius, background, progress=None, cards=None, shadow_model="exponential", vertex_shading=false, opaque_culling=true, triangles=None, skip_unused=true, reuse_shadow_maps=true, light_cull_threshold=1e-4, frustum_culling=true, backface_culling=true))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -873,11 +873,16 @@ fn render<'py>(
     shadow_model: &str,
     vertex_shading: bool,
     opaque_culling: bool,
-    triangles: Option<(PyReadonlyArray1<'py, f32>, PyReadonlyArray1<'py, f32>)>,
+    triangles: Option<(
+        PyReadonlyArray1<'py, f32>,
+        PyReadonlyArray1<'py, f32>,
+        PyReadonlyArray1<'py, u32>,
+    )>,
     skip_unused: bool,
     reuse_shadow_maps: bool,
     light_cull_threshold: f32,
     frustum_culling: bool,
+    backface_culling: bool,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     use crate::raster::scene::*;
     use glam::Vec3;
@@ -984,11 +989,15 @@ fn render<'py>(
         cards: build_cards(cards)?,
         triangles: match &triangles {
             None => Vec::new(),
-            Some((p, a)) => {
-                let (p, a) = (slice(p, "triangles")?, slice(a, "triangles")?);
-                if p.len() != 3 * a.len() || a.len() % 3 != 0 {
+            Some((p, a, m)) => {
+                let (p, a, m) = (
+                    slice(p, "triangles")?,
+                    slice(a, "triangles")?,
+                    slice(m, "triangles")?,
+                );
+                if p.len() != 3 * a.len() || a.len() % 3 != 0 || 3 * m.len() != a.len() {
                     return Err(PyValueError::new_err(
-                        "triangles: expected 9 position and 3 albedo values per triangle",
+                        "triangles: expected 9 position, 3 albedo values and a mesh index per triangle",
                     ));
                 }
                 (0..a.len() / 3)
@@ -997,6 +1006,7 @@ fn render<'py>(
                             Vec3::new(p[9 * t + 3 * k], p[9 * t + 3 * k + 1], p[9 * t + 3 * k + 2])
                         }),
                         albedo: Vec3::new(a[3 * t], a[3 * t + 1], a[3 * t + 2]),
+                        mesh: m[t],
                     })
                     .collect()
             }
@@ -1029,6 +1039,7 @@ fn render<'py>(
         background: background.into(),
         vertex_shading,
         frustum_culling,
+        backface_culling,
         opaque_culling,
         skip_unused,
         reuse_shadow_maps,
@@ -1080,6 +1091,7 @@ fn render<'py>(
     d.set_item("segments", stats.segments)?;
     d.set_item("segments_visible", stats.segments_visible)?;
     d.set_item("vertices_shaded", stats.vertices_shaded)?;
+    d.set_item("backfaces_culled", stats.backfaces_culled)?;
     d.set_item("fragments", stats.fragments)?;
     d.set_item("non_finite_pixels", stats.non_finite_pixels)?;
     d.set_item("culled_behind_opaque", stats.culled_behind_opaque)?;

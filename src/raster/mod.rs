@@ -126,6 +126,8 @@ pub struct RenderStats {
     /// Strand vertices shaded (per-vertex shading; frustum culling leaves
     /// out those of segments that reach no pixel).
     pub vertices_shaded: usize,
+    /// Mesh triangles skipped by back-face culling.
+    pub backfaces_culled: usize,
     pub fragments: u64,
     pub non_finite_pixels: u64,
     /// Segment or card-triangle visits skipped because the tile's opaque
@@ -399,8 +401,9 @@ struct SolidTri {
 
 /// Opaque mesh triangles, projected; a triangle with a corner behind the
 /// near plane is dropped (meshes are not clipped).
-fn build_solid_tris(scene: &Scene, view: &View) -> Vec<SolidTri> {
-    scene
+fn build_solid_tris(scene: &Scene, view: &View, cull: &[bool]) -> (Vec<SolidTri>, usize) {
+    let mut culled = 0;
+    let tris = scene
         .triangles
         .iter()
         .filter_map(|t| {
@@ -408,7 +411,12 @@ fn build_solid_tris(scene: &Scene, view: &View) -> Vec<SolidTri> {
             if v.iter().any(|x| !(x.z > view.near)) {
                 return None;
             }
-            let n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero();
+            let face = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
+            if cull.get(t.mesh as usize) == Some(&true) && face.dot(t.p[0] - view.eye) > 0.0 {
+                culled += 1;
+                return None;
+            }
+            let n = face.normalize_or_zero();
             Some(SolidTri {
                 p: v.map(|x| {
                     let (a, b) = view.project(x);
@@ -419,6 +427,65 @@ fn build_solid_tris(scene: &Scene, view: &View) -> Vec<SolidTri> {
                 normal: n,
                 albedo: t.albedo,
             })
+        })
+        .collect();
+    (tris, culled)
+}
+
+/// Per mesh, whether its back faces can be skipped: it is closed and
+/// consistently oriented (every directed edge is matched by exactly one
+/// opposite edge, vertices compared bit for bit), oriented outwards
+/// (positive signed volume), the eye is outside it (winding number 0, from
+/// the sum of the triangles' solid angles) and no triangle of it is dropped
+/// at the near plane. Then every ray from the eye enters the mesh through a
+/// front face before it can meet a back face, so back faces are hidden.
+fn meshes_to_cull(scene: &Scene, view: &View) -> Vec<bool> {
+    let meshes = scene
+        .triangles
+        .iter()
+        .map(|t| t.mesh as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut by_mesh: Vec<Vec<&scene::OpaqueTri>> = vec![Vec::new(); meshes];
+    for t in &scene.triangles {
+        by_mesh[t.mesh as usize].push(t);
+    }
+    let key = |p: Vec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    by_mesh
+        .iter()
+        .map(|tris| {
+            if tris.is_empty() {
+                return false;
+            }
+            let mut edges = std::collections::HashMap::with_capacity(3 * tris.len());
+            for t in tris {
+                for k in 0..3 {
+                    *edges
+                        .entry((key(t.p[k]), key(t.p[(k + 1) % 3])))
+                        .or_insert(0u32) += 1;
+                }
+            }
+            let closed = edges
+                .iter()
+                .all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1));
+            if !closed {
+                return false;
+            }
+            let (mut volume, mut solid_angle) = (0.0f64, 0.0f64);
+            for t in tris {
+                let p = t.p.map(|x| x.as_dvec3());
+                volume += p[0].dot(p[1].cross(p[2]));
+                let [a, b, c] = p.map(|x| x - view.eye.as_dvec3());
+                let (la, lb, lc) = (a.length(), b.length(), c.length());
+                let num = a.dot(b.cross(c));
+                let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+                solid_angle += 2.0 * num.atan2(den);
+            }
+            let winding = solid_angle / (4.0 * std::f64::consts::PI);
+            let in_front = tris
+                .iter()
+                .all(|t| t.p.iter().all(|&x| view.to_view(x).z > view.near));
+            volume > 0.0 && winding.abs() < 0.5 && in_front
         })
         .collect()
 }
@@ -734,15 +801,37 @@ impl<'a> Shader<'a> {
                     (e, sm.as_ref().map_or(1.0, |m| m.visibility(*p)))
                 };
             }
-            let inp = KarisInputs {
-                shadow: &shadow,
-                ..KarisInputs::directions(&l, &v, &t)
-            };
-            eval_range::<false>(k, &inp, 0, &mut f, level);
-            for (i, o) in out.iter_mut().enumerate() {
-                if shadow[i] > 0.0 {
-                    *o += Vec3::from_slice(&f[3 * i..]) * irradiance[i] * shadow[i];
+            // The kernel runs on the points the light reaches (culled and
+            // fully shadowed ones add nothing); lanes are independent, so
+            // the values do not depend on which points share a batch.
+            let active: Vec<usize> = (0..n).filter(|&i| shadow[i] > 0.0).collect();
+            if active.is_empty() {
+                continue;
+            }
+            let (la, va, ta, sa);
+            let inp = if active.len() == n {
+                KarisInputs {
+                    shadow: &shadow,
+                    ..KarisInputs::directions(&l, &v, &t)
                 }
+            } else {
+                let pick3 = |a: &[f32]| -> Vec<f32> {
+                    active
+                        .iter()
+                        .flat_map(|&i| [a[3 * i], a[3 * i + 1], a[3 * i + 2]])
+                        .collect()
+                };
+                (la, va, ta) = (pick3(&l), pick3(&v), pick3(&t));
+                sa = active.iter().map(|&i| shadow[i]).collect::<Vec<f32>>();
+                KarisInputs {
+                    shadow: &sa,
+                    ..KarisInputs::directions(&la, &va, &ta)
+                }
+            };
+            let fa = &mut f[..3 * active.len()];
+            eval_range::<false>(k, &inp, 0, fa, level);
+            for (j, &i) in active.iter().enumerate() {
+                out[i] += Vec3::from_slice(&fa[3 * j..]) * irradiance[i] * shadow[i];
             }
         }
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
@@ -1027,7 +1116,12 @@ pub fn render_with_progress(
         tiles_x,
         tiles_y,
     );
-    let solids = build_solid_tris(scene, &view);
+    let cull = if opts.backface_culling {
+        meshes_to_cull(scene, &view)
+    } else {
+        Vec::new()
+    };
+    let (solids, backfaces_culled) = build_solid_tris(scene, &view, &cull);
     let (solid_bins, _) = bin_to_tiles(
         solids
             .iter()
@@ -1072,6 +1166,7 @@ pub fn render_with_progress(
         segments: segment_count,
         segments_visible: visible,
         vertices_shaded,
+        backfaces_culled,
         shadow_ms,
         shadow_maps_reused,
         shadow_maps_skipped,

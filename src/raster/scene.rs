@@ -140,6 +140,8 @@ pub struct Sphere {
 pub struct OpaqueTri {
     pub p: [Vec3; 3],
     pub albedo: Vec3,
+    /// The mesh it belongs to (back-face culling looks at whole meshes).
+    pub mesh: u32,
 }
 
 /// How hair is shaded.
@@ -185,6 +187,11 @@ pub struct RenderOptions {
     /// shading them (per-vertex shading then shades only the vertices of
     /// the remaining segments); exact: such segments are never binned.
     pub frustum_culling: bool,
+    /// Back-face culling: skip the back-facing triangles of a mesh that is
+    /// closed, consistently oriented outwards, seen from outside and wholly
+    /// in front of the near plane (a back face of such a mesh is always
+    /// behind one of its front faces); other meshes stay two-sided.
+    pub backface_culling: bool,
     /// Skip hair behind a tile's farthest opaque surface (exact: such hair
     /// fails every pixel's depth test anyway).
     pub opaque_culling: bool,
@@ -213,6 +220,7 @@ impl Default for RenderOptions {
             background: Vec3::ZERO,
             vertex_shading: false,
             frustum_culling: true,
+            backface_culling: true,
             opaque_culling: true,
             skip_unused: true,
             reuse_shadow_maps: true,
