@@ -674,6 +674,14 @@ fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
     (cov > 0.0).then_some((cov, t))
 }
 
+/// Light-culling statistics gathered locally and added to the render's
+/// counters once per batch ([`Shader::flush`]).
+#[derive(Default, Clone, Copy)]
+struct CullTally {
+    count: u64,
+    max: f32,
+}
+
 /// Everything hair shading needs, prepared once per render.
 struct Shader<'a> {
     scene: &'a Scene,
@@ -786,6 +794,7 @@ impl<'a> Shader<'a> {
             .flat_map(|p| (eye - *p).normalize_or_zero().to_array())
             .collect();
         out.fill(Vec3::ZERO);
+        let mut tally = CullTally::default();
         let mut f = vec![0.0f32; 3 * n];
         let mut l = vec![0.0f32; 3 * n];
         let mut shadow = vec![0.0f32; n];
@@ -795,7 +804,7 @@ impl<'a> Shader<'a> {
             for (i, p) in points.iter().enumerate() {
                 let (li, e) = light.incident(*p);
                 l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
-                (irradiance[i], shadow[i]) = if self.culls(e) {
+                (irradiance[i], shadow[i]) = if self.culls(e, &mut tally) {
                     (Vec3::ZERO, 0.0)
                 } else {
                     (e, sm.as_ref().map_or(1.0, |m| m.visibility(*p)))
@@ -834,6 +843,7 @@ impl<'a> Shader<'a> {
                 out[i] += Vec3::from_slice(&fa[3 * j..]) * irradiance[i] * shadow[i];
             }
         }
+        self.flush(tally);
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             // L = the fake normal n = normalize(V − T(T·V)); π · SH(n)⁺ · f
             for i in 0..n {
@@ -861,9 +871,9 @@ impl<'a> Shader<'a> {
 
     /// Whether light culling skips a light of irradiance `e` at a hair point
     /// (its bounded contribution is below the threshold); counts the skip
-    /// and keeps the largest skipped bound for the statistics.
+    /// and keeps the largest skipped bound in `tally` (see [`CullTally`]).
     #[inline]
-    fn culls(&self, e: Vec3) -> bool {
+    fn culls(&self, e: Vec3, tally: &mut CullTally) -> bool {
         let Some(f_max) = self.f_max else {
             return false;
         };
@@ -871,20 +881,30 @@ impl<'a> Shader<'a> {
         if bound >= self.cull_threshold {
             return false;
         }
-        use std::sync::atomic::Ordering::Relaxed;
-        self.culled.fetch_add(1, Relaxed);
-        // non-negative floats order as their bits
-        self.culled_max_bits
-            .fetch_max(bound.max(0.0).to_bits(), Relaxed);
+        tally.count += 1;
+        tally.max = tally.max.max(bound.max(0.0));
         true
+    }
+
+    /// Adds a tally to the render's statistics (one atomic update per
+    /// batch: per point, two threads contending for the counters made
+    /// light culling slower than no culling).
+    fn flush(&self, tally: CullTally) {
+        use std::sync::atomic::Ordering::Relaxed;
+        if tally.count > 0 {
+            self.culled.fetch_add(tally.count, Relaxed);
+            // non-negative floats order as their bits
+            self.culled_max_bits.fetch_max(tally.max.to_bits(), Relaxed);
+        }
     }
 
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
     fn shade(&self, p: Vec3, t: Vec3, v: Vec3) -> Vec3 {
         let mut out = Vec3::ZERO;
+        let mut tally = CullTally::default();
         for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
             let (l, e) = light.incident(p);
-            if self.culls(e) {
+            if self.culls(e, &mut tally) {
                 continue;
             }
             let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
@@ -912,6 +932,7 @@ impl<'a> Shader<'a> {
             };
             out += f * e * vis;
         }
+        self.flush(tally);
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             out += Vec3::from(m.dispatch(EnvOne { v, t, sh: &env.sh }));
         }
