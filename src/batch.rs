@@ -357,18 +357,31 @@ pub fn karis_eval<T: Real, const LOBES: bool>(
     m.dispatch(V::<T, LOBES>(inp, out));
 }
 
+fn is_f32<T: Real>() -> bool {
+    std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>()
+}
+
+/// `a` as `f32` when `T` is `f32`.
+fn cast_f32<T: Real>(a: &[T]) -> Option<&[f32]> {
+    // SAFETY: T is f32 (checked), a cast to the same type.
+    is_f32::<T>().then(|| unsafe { std::slice::from_raw_parts(a.as_ptr() as *const f32, a.len()) })
+}
+
+/// `a` as `f32` when `T` is `f32`.
+fn cast_f32_mut<T: Real>(a: &mut [T]) -> Option<&mut [f32]> {
+    // SAFETY: T is f32 (checked), a cast to the same type.
+    is_f32::<T>()
+        .then(|| unsafe { std::slice::from_raw_parts_mut(a.as_mut_ptr() as *mut f32, a.len()) })
+}
+
 /// The same batch seen as `f32` when `T` is `f32`.
 fn as_f32<'a, 'b, T: Real>(
     m: &'a KarisHair<T>,
     inp: &KarisInputs<'b, T>,
     out: &'a mut [T],
 ) -> Option<(&'a KarisHair<f32>, KarisInputs<'b, f32>, &'a mut [f32])> {
-    if std::any::TypeId::of::<T>() != std::any::TypeId::of::<f32>() {
-        return None;
-    }
-    // SAFETY: T is f32 (checked above), so these are casts to the same type.
-    let cast =
-        |a: &'b [T]| unsafe { std::slice::from_raw_parts(a.as_ptr() as *const f32, a.len()) };
+    let cast = |a: &'b [T]| cast_f32(a).expect("T is f32");
+    let out = cast_f32_mut(out)?;
     let inp32 = KarisInputs {
         l: cast(inp.l),
         v: cast(inp.v),
@@ -378,13 +391,9 @@ fn as_f32<'a, 'b, T: Real>(
         local_scattering: cast(inp.local_scattering),
         opaque_visibility: cast(inp.opaque_visibility),
     };
-    unsafe {
-        Some((
-            &*(m as *const KarisHair<T> as *const KarisHair<f32>),
-            inp32,
-            std::slice::from_raw_parts_mut(out.as_mut_ptr() as *mut f32, out.len()),
-        ))
-    }
+    // SAFETY: T is f32 (cast_f32_mut succeeded): the same type.
+    let m32 = unsafe { &*(m as *const KarisHair<T> as *const KarisHair<f32>) };
+    Some((m32, inp32, out))
 }
 
 /// [`karis_eval`] for `f32` on the vector kernel ([`crate::simd`]) at
@@ -410,26 +419,15 @@ pub fn karis_eval_simd<const LOBES: bool>(
     });
 }
 
-/// `a` as `f32` when `T` is `f32`.
-fn cast_f32<T: Real>(a: &[T]) -> Option<&[f32]> {
-    (std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>())
-        // SAFETY: T is f32 (checked), a cast to the same type.
-        .then(|| unsafe { std::slice::from_raw_parts(a.as_ptr() as *const f32, a.len()) })
-}
-
 /// Batched [`ChiangHair::eval`] (out `3N`); degenerate pairs give 0. `f32`
 /// models with [`I0Mode::Exact`] run on the vector kernel
 /// ([`chiang_eval_simd`]), the others on the scalar one.
 pub fn chiang_eval<T: Real>(m: &ChiangHair<T>, wi: &[T], wo: &[T], out: &mut [T]) {
     if m.i0_mode() == I0Mode::Exact {
         if let (Some(a), Some(b)) = (cast_f32(wi), cast_f32(wo)) {
-            // SAFETY: T is f32 (cast_f32 succeeded), so these are casts to the same type.
-            let (m32, out32) = unsafe {
-                (
-                    &*(m as *const ChiangHair<T> as *const ChiangHair<f32>),
-                    std::slice::from_raw_parts_mut(out.as_mut_ptr() as *mut f32, out.len()),
-                )
-            };
+            let out32 = cast_f32_mut(out).expect("T is f32");
+            // SAFETY: T is f32 (cast_f32 succeeded): the same type.
+            let m32 = unsafe { &*(m as *const ChiangHair<T> as *const ChiangHair<f32>) };
             return chiang_eval_simd(m32, a, b, out32, crate::simd::Level::detect());
         }
     }

@@ -55,14 +55,7 @@ fn rgb_pairs<'py, T: Real + Element>(
     wo: PyReadonlyArray1<'py, T>,
     f: impl Fn(&[T; 3], &[T; 3]) -> [T; 3] + Sync + Send,
 ) -> PyResult<Bound<'py, PyArray1<T>>> {
-    let (a, b) = (slice(&wi, "wi")?, slice(&wo, "wo")?);
-    let n = pairs(a, b)?;
-    let out = without_gil(py, || {
-        let mut out = vec![T::ZERO; 3 * n];
-        map_pairs_rgb(a, b, &mut out, f);
-        out
-    });
-    Ok(PyArray1::from_vec(py, out))
+    rgb_batch(py, wi, wo, |a, b, out| map_pairs_rgb(a, b, out, &f))
 }
 
 /// `(N, 3)` RGB output of a whole-batch function of two direction arrays.

@@ -27,7 +27,7 @@ use crate::batch::pool;
 use crate::fiber::karis::Transmittance;
 use crate::lighting::sh9_eval;
 use glam::Vec3;
-use oit::{Fragment, Mlab};
+use oit::Layers;
 use rayon::prelude::*;
 use scene::{HairShading, RenderOptions, Scene, Transparency};
 use shadow::ShadowMap;
@@ -116,6 +116,16 @@ struct Segment {
     /// Shaded radiance at the ends (per-vertex shading only).
     ca: Vec3,
     cb: Vec3,
+}
+
+impl Segment {
+    /// How far its coverage reaches beyond the centre line, in pixels: half
+    /// the widest width (at least one pixel) plus the half-pixel filter,
+    /// plus half a pixel of margin.
+    #[inline]
+    fn pad(&self) -> f32 {
+        0.5 * self.wa.max(self.wb).max(1.0) + 1.0
+    }
 }
 
 /// Statistics of one render.
@@ -531,7 +541,7 @@ fn tri_tile_range(p: &[[f32; 2]; 3], tiles_x: u32, tiles_y: u32) -> Option<(u32,
 
 /// Screen-space bounding box in tiles, or None when off screen.
 fn tile_range(s: &Segment, tiles_x: u32, tiles_y: u32) -> Option<(u32, u32, u32, u32)> {
-    let pad = 0.5 * s.wa.max(s.wb).max(1.0) + 1.0;
+    let pad = s.pad();
     bbox_tiles(
         s.a[0].min(s.b[0]) - pad,
         s.a[0].max(s.b[0]) + pad,
@@ -1301,14 +1311,13 @@ fn render_tile(
 
     // Fragments: each segment visits only the pixels of its bounding box, in
     // scene order (so every pixel sees its fragments in a fixed order).
-    let mut mlab = match opts.transparency {
-        Transparency::Mlab(k) => Mlab::new(n, k),
-        Transparency::Sorted => Mlab::new(0, 1),
-    };
-    let mut lists: Vec<Vec<Fragment>> = match opts.transparency {
-        Transparency::Sorted => vec![Vec::new(); n],
-        Transparency::Mlab(_) => Vec::new(),
-    };
+    let mut layers = Layers::new(
+        n,
+        match opts.transparency {
+            Transparency::Mlab(k) => Some(k),
+            Transparency::Sorted => None,
+        },
+    );
     let mut frags = 0u64;
     // Per-pixel shading on the vector kernel: the tile's hair fragments are
     // collected (in the order they are produced), shaded in one batch, then
@@ -1366,7 +1375,7 @@ fn render_tile(
             culled += 1;
             continue;
         }
-        let pad = 0.5 * s.wa.max(s.wb).max(1.0) + 1.0;
+        let pad = s.pad();
         let bx0 = ((s.a[0].min(s.b[0]) - pad).floor() as i64 - x0 as i64).max(0) as u32;
         let bx1 = ((s.a[0].max(s.b[0]) + pad).ceil() as i64 - x0 as i64).min(tw as i64 - 1);
         let by0 = ((s.a[1].min(s.b[1]) - pad).floor() as i64 - y0 as i64).max(0) as u32;
@@ -1406,15 +1415,7 @@ fn render_tile(
                     ctx.shader
                         .shade(pw, tangent, (view.eye - pw).normalize_or_zero())
                 };
-                let frag = Fragment {
-                    depth,
-                    color: c * cov,
-                    transmittance: 1.0 - cov,
-                };
-                match opts.transparency {
-                    Transparency::Mlab(_) => mlab.insert(k, frag),
-                    Transparency::Sorted => lists[k].push(frag),
-                }
+                layers.add(k, depth, c, cov);
             }
         }
     }
@@ -1464,15 +1465,7 @@ fn render_tile(
                 }
                 let view_dir = (view.eye - pw).normalize_or_zero();
                 let c = ctx.shader.shade(pw, t.tangent, view_dir);
-                let frag = Fragment {
-                    depth,
-                    color: c * alpha,
-                    transmittance: 1.0 - alpha,
-                };
-                match opts.transparency {
-                    Transparency::Mlab(_) => mlab.insert(k, frag),
-                    Transparency::Sorted => lists[k].push(frag),
-                }
+                layers.add(k, depth, c, alpha);
             }
         }
     }
@@ -1482,16 +1475,7 @@ fn render_tile(
         ctx.shader
             .shade_serial(&pending.p, &pending.t, view.eye, &mut colors);
         for (i, c) in colors.into_iter().enumerate() {
-            let (k, alpha) = (pending.k[i] as usize, pending.alpha[i]);
-            let frag = Fragment {
-                depth: pending.depth[i],
-                color: c * alpha,
-                transmittance: 1.0 - alpha,
-            };
-            match opts.transparency {
-                Transparency::Mlab(_) => mlab.insert(k, frag),
-                Transparency::Sorted => lists[k].push(frag),
-            }
+            layers.add(pending.k[i] as usize, pending.depth[i], c, pending.alpha[i]);
         }
     }
 
@@ -1500,10 +1484,7 @@ fn render_tile(
     for j in 0..th {
         for i in 0..tw {
             let k = (j * TILE + i) as usize;
-            let col = match opts.transparency {
-                Transparency::Mlab(_) => mlab.resolve(k, base[k]),
-                Transparency::Sorted => oit::resolve_sorted(&mut lists[k], base[k]),
-            };
+            let col = layers.resolve(k, base[k]);
             if col.is_finite() {
                 out[3 * k..3 * k + 3].copy_from_slice(&col.to_array());
             } else {
@@ -1719,7 +1700,7 @@ mod tests {
                 ca: Vec3::ZERO,
                 cb: Vec3::ZERO,
             };
-            let pad = 0.5 * s.wa.max(s.wb).max(1.0) + 1.0;
+            let pad = s.pad();
             let span = RowSpan::new(&s, pad - 0.5);
             let x0 = ((a[0].min(b[0]) - pad).max(0.0) as u32 / TILE) * TILE;
             let y0 = (a[1].min(b[1]) - pad).max(0.0) as u32;

@@ -86,6 +86,48 @@ fn composite<'a>(frags: impl Iterator<Item = &'a Fragment>, background: Vec3) ->
     c + background * t
 }
 
+/// A tile's per-pixel composite in the chosen transparency mode.
+pub enum Layers {
+    /// MLAB with a fixed number of layers per pixel.
+    Mlab(Mlab),
+    /// Every fragment kept, sorted at resolve time.
+    Sorted(Vec<Vec<Fragment>>),
+}
+
+impl Layers {
+    /// Empty layers for `pixels` pixels: MLAB with `k` layers, or sorted
+    /// lists when `k` is `None`.
+    pub fn new(pixels: usize, k: Option<usize>) -> Self {
+        match k {
+            Some(k) => Layers::Mlab(Mlab::new(pixels, k)),
+            None => Layers::Sorted(vec![Vec::new(); pixels]),
+        }
+    }
+
+    /// Adds to pixel `px` a fragment of radiance `color` with coverage
+    /// `alpha` at `depth`.
+    #[inline]
+    pub fn add(&mut self, px: usize, depth: f32, color: Vec3, alpha: f32) {
+        let f = Fragment {
+            depth,
+            color: color * alpha,
+            transmittance: 1.0 - alpha,
+        };
+        match self {
+            Layers::Mlab(m) => m.insert(px, f),
+            Layers::Sorted(lists) => lists[px].push(f),
+        }
+    }
+
+    /// Pixel `px` composited over `background`.
+    pub fn resolve(&mut self, px: usize, background: Vec3) -> Vec3 {
+        match self {
+            Layers::Mlab(m) => m.resolve(px, background),
+            Layers::Sorted(lists) => resolve_sorted(&mut lists[px], background),
+        }
+    }
+}
+
 /// Exact composite: all fragments sorted by depth (ties keep insertion order).
 pub fn resolve_sorted(frags: &mut [Fragment], background: Vec3) -> Vec3 {
     frags.sort_by(|a, b| a.depth.total_cmp(&b.depth));
