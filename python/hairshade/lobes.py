@@ -16,7 +16,6 @@ __all__ = [
     "eta_prime", "eta_prime_fit", "h_tt", "h_tt_fit",
     "d_tt", "d_tt_fit", "d_trt", "d_trt_fit",
     "schlick_fresnel", "asin_fast", "color_to_absorption",
-    "attenuation_tt", "attenuation_trt",
 ]
 
 
@@ -101,20 +100,3 @@ def color_to_absorption(color, beta_n=0.3):
     """Chiang 2016 eq. 9: sigma_a (per unit radius) for a hair color."""
     return _call("color_to_absorption", color, beta_n)
 
-
-def attenuation_tt(color, cos_theta_d, h, a, legacy=True):
-    """KarisHair's TT attenuation (1 - f)^2 T for one color channel."""
-    color, cos_theta_d, h, a = np.broadcast_arrays(*map(np.asarray, (color, cos_theta_d, h, a)))
-    f = schlick_fresnel(1.55, cos_theta_d * np.sqrt(np.clip(1 - h * h, 0, None)))
-    ha2 = (h * a) ** 2
-    if legacy:
-        t = np.power(color, 0.5 * np.sqrt(np.clip(1 - ha2, 0, None)) / cos_theta_d)
-    else:
-        t = np.exp(-color_to_absorption(color) * 2 * np.abs(1 - ha2 / cos_theta_d))
-    return (1 - f) ** 2 * t
-
-
-def attenuation_trt(color, cos_theta_d):
-    """KarisHair's TRT attenuation (1 - f)^2 f C^(0.8 / cos theta_d), f = F(cos theta_d / 2)."""
-    f = schlick_fresnel(1.55, 0.5 * np.asarray(cos_theta_d))
-    return (1 - f) ** 2 * f * np.power(color, 0.8 / np.asarray(cos_theta_d))
