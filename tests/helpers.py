@@ -4,6 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+# The Mitsuba comparison set, shared with `hairshade validate`:
+# direction_pairs(n_random, rng) draws from rng in place (a Generator passes
+# through np.random.default_rng unchanged), as the copy that lived here did.
+from hairshade.validation import direction_pairs  # noqa: F401
+
 U32 = 2.0**-24  # unit roundoff of float32
 
 
@@ -38,22 +43,3 @@ def rot_y(w: np.ndarray, psi: np.ndarray | float) -> np.ndarray:
 def offset_h(wi: np.ndarray) -> np.ndarray:
     """h = sin(gamma_i) = -x / |xz| in Mitsuba's hair frame."""
     return -wi[..., 0] / np.hypot(wi[..., 0], wi[..., 2])
-
-
-def direction_pairs(n_random: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Random pairs plus structured ones: theta on a grid up to +-89 degrees,
-    delta-phi 0 and pi, and wi at h = 0, +-0.5, +-0.999."""
-    wi_r, wo_r = uniform_sphere(n_random, rng), uniform_sphere(n_random, rng)
-    th = np.deg2rad([-89.0, -60.0, -20.0, 0.0, 30.0, 75.0, 89.0])
-    hs = np.array([0.0, 0.5, -0.5, 0.999, -0.999])
-    wi_s, wo_s = [], []
-    for ti in th:
-        for h in hs:
-            phi_i = np.pi / 2 + np.arcsin(h)  # puts wi at offset h (see rot_y)
-            wi = from_angles(np.array(ti), np.array(phi_i))
-            wi = wi * np.array([1.0, 1.0, 1.0])
-            for to in th[::2]:
-                for dphi in (0.0, np.pi, 0.7):
-                    wi_s.append(wi)
-                    wo_s.append(from_angles(np.array(to), np.array(phi_i + dphi)))
-    return np.concatenate([wi_r, np.array(wi_s)]), np.concatenate([wo_r, np.array(wo_s)])

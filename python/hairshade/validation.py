@@ -22,10 +22,13 @@ ABSORPTIONS = {
 TILTS = (0.0, 2.0, -6.0)
 
 
-def direction_pairs(n_random: int = 500, seed: int = 12345) -> tuple[np.ndarray, np.ndarray]:
+def direction_pairs(n_random: int = 500, seed: int | np.random.Generator = 12345) -> tuple[np.ndarray, np.ndarray]:
     """Uniform random pairs plus structured ones (theta up to +-89 degrees,
-    delta-phi 0 and pi, wi at h = 0, +-0.5, +-0.999)."""
-    rng = np.random.default_rng(seed)
+    delta-phi 0, pi and 0.7, wi at h = 0, +-0.5, +-0.999): n_random + 420
+    pairs. ``seed`` is a seed or a Generator, which is drawn from
+    in place (n_random wi, then n_random wo); the tests use
+    this set too (tests/helpers.py)."""
+    rng = np.random.default_rng(seed)  # a Generator passes through unchanged
 
     def sphere(n):
         v = rng.normal(size=(n, 3))
