@@ -33,6 +33,19 @@ def from_angles(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(theta) * np.cos(phi), np.sin(theta), np.cos(theta) * np.sin(phi)], -1)
 
 
+def edge_grid() -> tuple[np.ndarray, np.ndarray]:
+    """(L, V) for the far-field models' robustness tests: theta in {-90, -45,
+    0, 45, 90} for both, phi in {0, pi/2, pi}, plus 50 random pairs with
+    V = L and 50 with V = -L."""
+    th = np.deg2rad([-90.0, -45.0, 0.0, 45.0, 90.0])
+    ph = np.array([0.0, np.pi / 2, np.pi])
+    TI, TO, PH = np.meshgrid(th, th, ph, indexing="ij")
+    L = from_angles(TI, 0 * TI).reshape(-1, 3)
+    V = from_angles(TO, PH).reshape(-1, 3)
+    extra = uniform_sphere(50, np.random.default_rng(0))
+    return np.concatenate([L, extra, extra]), np.concatenate([V, extra, -extra])
+
+
 def rot_y(w: np.ndarray, psi: np.ndarray | float) -> np.ndarray:
     """Rotate w about the fiber tangent (y) by psi: adds psi to the azimuth."""
     c, s = np.cos(psi), np.sin(psi)

@@ -1,4 +1,6 @@
-"""DEonHair: converged quadrature against brute force, the stratified mode."""
+"""DEonHair (UE4 HairShadingRef): converged quadrature against brute force,
+the stratified mode, lobes and components, ChiangHair's far field where the
+models coincide, parameters, robustness."""
 
 from __future__ import annotations
 
@@ -7,7 +9,7 @@ import pytest
 
 import hairshade as hs
 from hairshade import tables
-from helpers import uniform_sphere
+from helpers import edge_grid, uniform_sphere
 
 T = np.array([0.0, 1.0, 0.0])
 
@@ -72,3 +74,32 @@ def test_04_matches_chiang_far_field_where_models_coincide():
     a = d.eval(L, V, T).mean(axis=0) * 4 * np.pi
     b = ch.eval_far_lobes(L, V)["TT"].mean(axis=0) * 4 * np.pi
     assert np.all(np.abs(a / b - 1) < 0.15), (a, b)
+
+
+@pytest.mark.parametrize(
+    "kwargs,name",
+    [
+        (dict(base_color=(-0.1, 0.1, 0.1)), "base_color"),
+        (dict(roughness=2.0), "roughness"),
+        (dict(eta=1.0), "eta"),
+        (dict(h_samples=0), "h_samples"),
+        (dict(h_samples=2.5), "h_samples"),
+        (dict(components=("MS",)), "components"),
+        (dict(h_offset=1.0), "h_offset"),
+    ],
+)
+def test_05_bad_parameters(kwargs, name):
+    with pytest.raises(ValueError, match=rf"^{name}: "):
+        hs.DEonHair(**kwargs)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_06_no_nan_or_negative_on_edge_grid(dtype):
+    """Converged quadrature at roughness 0, 1/255, 0.3 and 1, black, white and
+    brown, on the poles, phi = 0 / pi/2 / pi and V = +-L."""
+    L, V = (x.astype(dtype) for x in edge_grid())
+    for r in (0.0, 1 / 255, 0.3, 1.0):
+        for c in ((0, 0, 0), (1, 1, 1), (0.3, 0.15, 0.08)):
+            out = hs.DEonHair(base_color=c, roughness=r).eval(L, V, T.astype(dtype))
+            assert np.all(np.isfinite(out)), (dtype, r, c)
+            assert np.all(out >= 0), (dtype, r, c)

@@ -1,5 +1,6 @@
-"""KarisHair (UE4 HairShading) and DEonHair (HairShadingRef): term checks,
-components, parameters, robustness, the environment variant."""
+"""KarisHair (UE4 HairShading): term checks, components, parameters,
+robustness, the environment variant. DEonHair (HairShadingRef) is in
+tests/test_deon.py."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 
 import hairshade as hs
-from helpers import uniform_sphere
+from helpers import edge_grid, uniform_sphere
 
 T = np.array([0.0, 1.0, 0.0])
 
@@ -15,18 +16,6 @@ T = np.array([0.0, 1.0, 0.0])
 def world(theta, phi):
     theta, phi = np.broadcast_arrays(theta, phi)
     return np.stack([np.cos(theta) * np.cos(phi), np.sin(theta), np.cos(theta) * np.sin(phi)], -1)
-
-
-def edge_grid():
-    """theta in {-90, -45, 0, 45, 90}, phi in {0, pi/2, pi}, plus V = +-L."""
-    th = np.deg2rad([-90.0, -45.0, 0.0, 45.0, 90.0])
-    ph = np.array([0.0, np.pi / 2, np.pi])
-    TI, TO, PH = np.meshgrid(th, th, ph, indexing="ij")
-    L = world(TI, 0 * TI).reshape(-1, 3)
-    V = world(TO, PH).reshape(-1, 3)
-    rng = np.random.default_rng(0)
-    extra = uniform_sphere(50, rng)
-    return np.concatenate([L, extra, extra]), np.concatenate([V, extra, -extra])
 
 
 def test_01_r_term_by_hand():
@@ -116,7 +105,7 @@ def test_05_fast_asin_changes_little():
     assert 0 < rel < 0.05
 
 
-@pytest.mark.parametrize("model", ["karis", "karis_f32", "deon", "deon_f32", "env"])
+@pytest.mark.parametrize("model", ["karis", "karis_f32", "env"])
 def test_06_no_nan_or_negative_on_edge_grid(model):
     L, V = edge_grid()
     for r in (0.0, 1 / 255, 0.3, 1.0):
@@ -125,10 +114,6 @@ def test_06_no_nan_or_negative_on_edge_grid(model):
                 m = hs.KarisHair(base_color=c, roughness=r, scatter=1.0, legacy_absorption=(r != 0.3))
                 args = (L, V, T) if model == "karis" else (L.astype(np.float32), V.astype(np.float32), T.astype(np.float32))
                 out = m.eval(*args, shadow=0.2)
-            elif model.startswith("deon"):
-                m = hs.DEonHair(base_color=c, roughness=r)
-                args = (L, V, T) if model == "deon" else (L.astype(np.float32), V.astype(np.float32), T.astype(np.float32))
-                out = m.eval(*args)
             else:
                 out = hs.KarisHair(base_color=c, roughness=r).eval_env(V, T, np.ones((9, 3)))
             assert np.all(np.isfinite(out)), (model, r, c)
@@ -178,24 +163,7 @@ def test_08_bad_parameters(kwargs, name):
         hs.KarisHair(**kwargs)
 
 
-@pytest.mark.parametrize(
-    "kwargs,name",
-    [
-        (dict(base_color=(-0.1, 0.1, 0.1)), "base_color"),
-        (dict(roughness=2.0), "roughness"),
-        (dict(eta=1.0), "eta"),
-        (dict(h_samples=0), "h_samples"),
-        (dict(h_samples=2.5), "h_samples"),
-        (dict(components=("MS",)), "components"),
-        (dict(h_offset=1.0), "h_offset"),
-    ],
-)
-def test_09_deon_bad_parameters(kwargs, name):
-    with pytest.raises(ValueError, match=rf"^{name}: "):
-        hs.DEonHair(**kwargs)
-
-
-def test_10_per_pair_inputs_shapes():
+def test_09_per_pair_inputs_shapes():
     k = hs.KarisHair(scatter=0.5)
     rng = np.random.default_rng(6)
     L, V = uniform_sphere(10, rng), uniform_sphere(10, rng)
@@ -210,7 +178,7 @@ def test_10_per_pair_inputs_shapes():
         k.eval(L, V[:5], T)
 
 
-def test_11_nonfinite_inputs_give_zero_locally():
+def test_10_nonfinite_inputs_give_zero_locally():
     k = hs.KarisHair(scatter=0.5)
     rng = np.random.default_rng(7)
     L, V = uniform_sphere(8, rng), uniform_sphere(8, rng)
@@ -223,7 +191,7 @@ def test_11_nonfinite_inputs_give_zero_locally():
     np.testing.assert_array_equal(out[ok], k.eval(L[ok], V[ok], T))
 
 
-def test_12_float32_close_to_float64():
+def test_11_float32_close_to_float64():
     k = hs.KarisHair(scatter=0.3)
     rng = np.random.default_rng(8)
     L, V = uniform_sphere(5000, rng), uniform_sphere(5000, rng)
