@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import hairshade as hs
+from hairshade import _native
 from helpers import uniform_sphere
 
 RNG = np.random.default_rng(0)
@@ -196,7 +197,32 @@ def test_15_gil_released_during_evaluation():
     assert ticks > 10_000, ticks
 
 
-def test_16_deterministic():
-    m = hs.ChiangHair()
-    wi, wo = uniform_sphere(100_000, RNG), uniform_sphere(100_000, RNG)
-    np.testing.assert_array_equal(m.eval(wi, wo), m.eval(wi, wo))
+def test_16_a_pair_evaluates_to_the_same_bits_in_any_batch():
+    """A pair's value depends on that pair only: not on its position in the
+    batch (permuted), the batch's length (slices of 1, 7, 15, 977 pairs and
+    the rest, so pairs land in vector tails and at lane boundaries of the f32
+    kernels) or the thread count (hairshade's pool vs one thread). Exact
+    equality: each pair is computed by the same scalar or lane-wise code
+    (ARCHITECTURE, SIMD), so nothing may differ, not even rounding."""
+    wi, wo = uniform_sphere(100_003, RNG), uniform_sphere(100_003, RNG)
+    perm = RNG.permutation(len(wi))
+    cuts = [0, 1, 8, 23, 1000, len(wi)]
+    T = np.array([0.0, 1.0, 0.0])
+    models = {
+        "ChiangHair.eval": lambda a, b: hs.ChiangHair().eval(a, b),
+        "ChiangHair.pdf": lambda a, b: hs.ChiangHair().pdf(a, b),
+        "KarisHair.eval": lambda a, b: hs.KarisHair(scatter=0.3).eval(a, b, T.astype(a.dtype)),
+    }
+    for dtype in (np.float64, np.float32):
+        a, b = wi.astype(dtype), wo.astype(dtype)
+        for name, f in models.items():
+            full = f(a, b)
+            np.testing.assert_array_equal(f(a[perm], b[perm]), full[perm], err_msg=f"{name} {dtype.__name__}: permuted")
+            sliced = np.concatenate([f(a[i:j], b[i:j]) for i, j in zip(cuts[:-1], cuts[1:])])
+            np.testing.assert_array_equal(sliced, full, err_msg=f"{name} {dtype.__name__}: sliced")
+            _native.set_single_threaded(True)
+            try:
+                one = f(a, b)
+            finally:
+                _native.set_single_threaded(False)
+            np.testing.assert_array_equal(one, full, err_msg=f"{name} {dtype.__name__}: one thread")
