@@ -4,10 +4,12 @@ the numbers themselves are measurements, not test conditions)."""
 import csv
 
 import numpy as np
+import pytest
 
 from hairshade import benchmark
 
 
+@pytest.mark.mitsuba  # times Mitsuba's `hair` beside ours when Mitsuba is installed
 def test_bench_rows_csv_and_pareto(tmp_path):
     rows = benchmark.bsdf_runtime_vs_error(n=4096, repeats=1, fast=True, progress_bar=False)
     models = {r["model"] for r in rows}

@@ -38,7 +38,6 @@ import pytest
 from scipy import special
 
 import hairshade as hs
-from hairshade.mitsuba import MitsubaHair
 from helpers import U32, direction_pairs, offset_h, rot_y
 
 BETA_M = [0.2, 0.35, 0.5, 0.8]
@@ -54,6 +53,15 @@ REL_TOL = 1e-4
 SIGNIFICANT = 1e-4  # compare where Mitsuba's value exceeds this fraction of its grid maximum
 
 WI, WO = direction_pairs(500, np.random.default_rng(12345))
+
+
+def _mitsuba_hair(model):
+    """Mitsuba's `hair` with model's parameters, scalar_rgb. Imported here, by
+    the tests marked `mitsuba` only, so that `-m "not mitsuba"` runs the rest
+    of this file without Mitsuba installed."""
+    from hairshade.mitsuba import MitsubaHair
+
+    return MitsubaHair(model, "scalar_rgb")
 
 
 def _delta_gamma(wi: np.ndarray) -> np.ndarray:
@@ -93,11 +101,12 @@ def _check_bracketed(ours_lo, ours_hi, ref, what):
     )
 
 
+@pytest.mark.mitsuba
 @pytest.mark.parametrize("beta_m,beta_n,absorption,tilt", GRID)
 def test_01_eval_and_pdf_match_mitsuba(beta_m, beta_n, absorption, tilt):
     kw = dict(longitudinal_roughness=beta_m, azimuthal_roughness=beta_n, scale_tilt=tilt, **ABSORPTION[absorption])
     ours = hs.ChiangHair(i0="mitsuba", **kw)
-    ref_v, ref_p = MitsubaHair(ours, "scalar_rgb").eval_pdf(WI, WO)
+    ref_v, ref_p = _mitsuba_hair(ours).eval_pdf(WI, WO)
     assert np.all(np.isfinite(ref_v)) and ref_v.max() > 0
     lo, hi = _bracket(ours.eval, WI, WO)
     _check_bracketed(lo, hi, ref_v, "eval")
@@ -105,6 +114,7 @@ def test_01_eval_and_pdf_match_mitsuba(beta_m, beta_n, absorption, tilt):
     _check_bracketed(lo[:, None], hi[:, None], ref_p[:, None], "pdf")
 
 
+@pytest.mark.mitsuba
 def test_02_well_conditioned_pairs_match_without_bracket():
     """Where Mitsuba's f32 gamma is accurate (0.05 <= |h| <= 0.95, |xz| >= 0.1)
     the plain relative difference is below 1e-4 on the whole grid."""
@@ -116,7 +126,7 @@ def test_02_well_conditioned_pairs_match_without_bracket():
     for beta_m, beta_n, absorption, tilt in GRID[::5]:
         kw = dict(longitudinal_roughness=beta_m, azimuthal_roughness=beta_n, scale_tilt=tilt, **ABSORPTION[absorption])
         ours = hs.ChiangHair(i0="mitsuba", **kw)
-        ref = MitsubaHair(ours, "scalar_rgb").eval(WI[sel], WO[sel])
+        ref = _mitsuba_hair(ours).eval(WI[sel], WO[sel])
         got = ours.eval(WI[sel], WO[sel])
         mask = ref > SIGNIFICANT * ref.max(axis=0)
         worst = max(worst, float((np.abs(got - ref)[mask] / ref[mask]).max()))
@@ -191,6 +201,7 @@ def test_03_exact_mode_difference_is_the_i0_difference(beta_m):
         assert rel.max() > 1e-3
 
 
+@pytest.mark.mitsuba
 def test_04_sample_matches_mitsuba():
     """Same (u1, u2) -> same lobe, direction and pdf as Mitsuba's sample."""
     rng = np.random.default_rng(7)
@@ -199,7 +210,7 @@ def test_04_sample_matches_mitsuba():
     u1 = rng.random(n)
     u2 = rng.random((n, 2))
     ours = hs.ChiangHair(i0="mitsuba", sigma_a=[0.25, 0.9, 2.5])
-    wo_m, w_m, pdf_m = MitsubaHair(ours, "scalar_rgb").sample(wi, u1, u2)
+    wo_m, w_m, pdf_m = _mitsuba_hair(ours).sample(wi, u1, u2)
     wo_h, w_h, pdf_h = ours.sample(wi, u1, u2)
     ok = pdf_m > 0
     same_dir = np.linalg.norm(wo_h - wo_m, axis=1) < 1e-3

@@ -142,6 +142,7 @@ def test_05_rasterizer_hostile_scenes(pts, radius, cam_z, light_inside):
         _check(hs.render(s))
 
 
+@pytest.mark.slow  # 20 s of fuzzing by design, ~25 s with start-up
 def test_06_fuzz_scene_loader(tmp_path):
     """The atheris target for 20 s from the seed corpus: no crash, no
     exception other than SceneError, no NaN pixel."""
