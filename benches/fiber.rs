@@ -92,7 +92,8 @@ fn bench_chiang(c: &mut Criterion) {
 /// KarisHair f32, all lobes, batch of 2^16 pairs on every thread: the
 /// scalar kernel beside the vector kernel at each SIMD level.
 fn bench_karis(c: &mut Criterion) {
-    use hairshade::batch::{karis_eval_simd, par_map, KarisInputs};
+    use hairshade::batch::{karis_eval_simd, par_map};
+    use hairshade::fiber::karis::KarisInputs;
     use hairshade::fiber::karis::{KarisHair, KarisParams, Transmittance};
     use hairshade::simd::Level;
     let n = 1 << 16;

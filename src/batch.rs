@@ -1,4 +1,5 @@
-//! Batched evaluation over flat `(N, 3)` arrays, in parallel with rayon.
+//! Batched evaluation over flat `(N, 3)` arrays, in parallel on
+//! [`crate::threads::pool`].
 //!
 //! Every model's per-pair function sees unit vectors only: inputs are
 //! normalized here, and a pair with a non-finite or zero-length direction
@@ -8,68 +9,10 @@
 use crate::fiber::chiang::{ChiangHair, I0Mode};
 use crate::fiber::deon::DEonHair;
 use crate::fiber::frame::{normalized, Vec3};
-use crate::fiber::karis::{KarisHair, KarisLobes, LobeVisitor, Transmittance};
+use crate::fiber::karis::{KarisHair, KarisInputs, KarisLobes, LobeVisitor, Transmittance};
 use crate::math::Real;
+use crate::threads::pool;
 use rayon::prelude::*;
-
-/// The thread pool every batch runs on.
-///
-/// Its threads clear the upper halves of the AVX registers when they start:
-/// a thread inherits its creator's register state, and if the creator last
-/// ran AVX code without `vzeroupper` (the JIT-compiled kernels of a renderer
-/// loaded in the same process, for example), every SSE instruction of the
-/// new thread pays a state-transition penalty, measured here as a 7× slower
-/// `eval`. Threads: `RAYON_NUM_THREADS` or the number of CPUs.
-pub fn pool() -> &'static rayon::ThreadPool {
-    static POOL: std::sync::OnceLock<rayon::ThreadPool> = std::sync::OnceLock::new();
-    static SINGLE: std::sync::OnceLock<rayon::ThreadPool> = std::sync::OnceLock::new();
-    let build = |n: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .thread_name(|i| format!("hairshade-{i}"))
-            .start_handler(|_| clear_upper_simd_state())
-            .build()
-            .expect("cannot start the hairshade thread pool")
-    };
-    if SINGLE_THREADED.load(std::sync::atomic::Ordering::Relaxed) {
-        SINGLE.get_or_init(|| build(1))
-    } else {
-        // 0: RAYON_NUM_THREADS or the CPU count.
-        POOL.get_or_init(|| build(0))
-    }
-}
-
-static SINGLE_THREADED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// Runs later batches on one thread (`true`) or on all (`false`); for
-/// measuring scaling. Results do not depend on it.
-pub fn set_single_threaded(on: bool) {
-    SINGLE_THREADED.store(on, std::sync::atomic::Ordering::Relaxed);
-}
-
-#[inline]
-fn clear_upper_simd_state() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU supports AVX (checked above); vzeroupper only
-            // zeroes the upper halves of ymm registers, which hold no live
-            // values at thread start.
-            unsafe { clear_upper_avx() }
-        }
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-unsafe fn clear_upper_avx() {
-    std::arch::x86_64::_mm256_zeroupper();
-}
-
-/// Number of threads batches run on.
-pub fn num_threads() -> usize {
-    pool().current_num_threads()
-}
 
 /// Pairs per parallel task: large enough to amortize scheduling, small
 /// enough to balance two to a few dozen threads.
@@ -238,73 +181,28 @@ fn clamp01<T: Real>(x: T) -> T {
     x.max(T::ZERO).min(T::ONE)
 }
 
-/// Per-pair inputs of a batched [`KarisHair`] evaluation (each array holds N
-/// values or one broadcast value: 1 / 3 for scalars / RGB).
-pub struct KarisInputs<'a, T> {
-    pub l: &'a [T],
-    pub v: &'a [T],
-    pub t: &'a [T],
-    pub shadow: &'a [T],
-    pub global_scattering: &'a [T],
-    pub local_scattering: &'a [T],
-    pub opaque_visibility: &'a [T],
-}
+/// Unit L, V, T and the transmittance of one pair.
+type KarisPair<T> = (Vec3<T>, Vec3<T>, Vec3<T>, Transmittance<T>);
 
-impl<'a> KarisInputs<'a, f32> {
-    /// Directions only, with the default transmittance (shadow 1, global
-    /// scattering 1, local scattering 0, opaque visibility 1).
-    pub fn directions(l: &'a [f32], v: &'a [f32], t: &'a [f32]) -> Self {
-        Self {
-            l,
-            v,
-            t,
-            shadow: &[1.0],
-            global_scattering: &[1.0; 3],
-            local_scattering: &[0.0; 3],
-            opaque_visibility: &[1.0],
-        }
-    }
-}
-
-impl<T: Real> KarisInputs<'_, T> {
-    /// Number of pairs (the longest input).
-    pub fn len(&self) -> usize {
-        [
-            self.l.len() / 3,
-            self.v.len() / 3,
-            self.t.len() / 3,
-            self.shadow.len(),
-            self.global_scattering.len() / 3,
-            self.local_scattering.len() / 3,
-            self.opaque_visibility.len(),
-        ]
-        .into_iter()
-        .max()
-        .unwrap_or(0)
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    #[inline(always)]
-    fn at(&self, i: usize) -> Option<(Vec3<T>, Vec3<T>, Vec3<T>, Transmittance<T>)> {
-        let (l, v, t) = (dir_at(self.l, i)?, dir_at(self.v, i)?, dir_at(self.t, i)?);
-        let tr = Transmittance {
-            shadow: scalar_at(self.shadow, i),
-            global_scattering: rgb_at(self.global_scattering, i),
-            local_scattering: rgb_at(self.local_scattering, i),
-            opaque_visibility: scalar_at(self.opaque_visibility, i),
-        };
-        let finite = tr.shadow.is_finite()
-            && tr.opaque_visibility.is_finite()
-            && tr
-                .global_scattering
-                .iter()
-                .chain(&tr.local_scattering)
-                .all(|x| x.is_finite());
-        finite.then_some((l, v, t, tr))
-    }
+/// Pair `i` of a batch, or None when a direction is degenerate or an input
+/// is not finite.
+#[inline(always)]
+fn karis_at<T: Real>(inp: &KarisInputs<'_, T>, i: usize) -> Option<KarisPair<T>> {
+    let (l, v, t) = (dir_at(inp.l, i)?, dir_at(inp.v, i)?, dir_at(inp.t, i)?);
+    let tr = Transmittance {
+        shadow: scalar_at(inp.shadow, i),
+        global_scattering: rgb_at(inp.global_scattering, i),
+        local_scattering: rgb_at(inp.local_scattering, i),
+        opaque_visibility: scalar_at(inp.opaque_visibility, i),
+    };
+    let finite = tr.shadow.is_finite()
+        && tr.opaque_visibility.is_finite()
+        && tr
+            .global_scattering
+            .iter()
+            .chain(&tr.local_scattering)
+            .all(|x| x.is_finite());
+    finite.then_some((l, v, t, tr))
 }
 
 fn flatten_lobes<T: Real>(k: &KarisLobes<T>) -> [T; 12] {
@@ -316,10 +214,71 @@ fn flatten_lobes<T: Real>(k: &KarisLobes<T>) -> [T; 12] {
     o
 }
 
+/// The precisions batches run in, each with its kernels: `f32` on the
+/// vector kernels where the model has one ([`crate::simd`]), `f64` on the
+/// scalar ones.
+pub trait Precision: Real {
+    /// [`karis_eval`] in this precision.
+    fn karis_eval<const LOBES: bool>(
+        m: &KarisHair<Self>,
+        inp: &KarisInputs<'_, Self>,
+        out: &mut [Self],
+    );
+    /// [`chiang_eval`] in this precision.
+    fn chiang_eval(m: &ChiangHair<Self>, wi: &[Self], wo: &[Self], out: &mut [Self]);
+}
+
+impl Precision for f32 {
+    /// The vector kernel, except for models with UE's `fast_asin`.
+    fn karis_eval<const LOBES: bool>(
+        m: &KarisHair<f32>,
+        inp: &KarisInputs<'_, f32>,
+        out: &mut [f32],
+    ) {
+        if m.fast_asin() {
+            karis_eval_scalar::<f32, LOBES>(m, inp, out)
+        } else {
+            karis_eval_simd::<LOBES>(m, inp, out, crate::simd::Level::detect())
+        }
+    }
+
+    /// The vector kernel with the exact I0; Mitsuba's I0 on the scalar one.
+    fn chiang_eval(m: &ChiangHair<f32>, wi: &[f32], wo: &[f32], out: &mut [f32]) {
+        if m.i0_mode() == I0Mode::Exact {
+            chiang_eval_simd(m, wi, wo, out, crate::simd::Level::detect())
+        } else {
+            map_pairs_rgb(wi, wo, out, |a, b| m.eval(a, b))
+        }
+    }
+}
+
+impl Precision for f64 {
+    fn karis_eval<const LOBES: bool>(
+        m: &KarisHair<f64>,
+        inp: &KarisInputs<'_, f64>,
+        out: &mut [f64],
+    ) {
+        karis_eval_scalar::<f64, LOBES>(m, inp, out)
+    }
+
+    fn chiang_eval(m: &ChiangHair<f64>, wi: &[f64], wo: &[f64], out: &mut [f64]) {
+        map_pairs_rgb(wi, wo, out, |a, b| m.eval(a, b))
+    }
+}
+
 /// Batched [`KarisHair::eval`] (`LOBES = false`, out `3N`) or its lobes
 /// (`LOBES = true`, out `12N`: R, TT, TRT, MS). Pairs with a degenerate
 /// direction or a non-finite input give 0.
-pub fn karis_eval<T: Real, const LOBES: bool>(
+pub fn karis_eval<T: Precision, const LOBES: bool>(
+    m: &KarisHair<T>,
+    inp: &KarisInputs<'_, T>,
+    out: &mut [T],
+) {
+    T::karis_eval::<LOBES>(m, inp, out)
+}
+
+/// [`karis_eval`] on the scalar kernel.
+pub fn karis_eval_scalar<T: Real, const LOBES: bool>(
     m: &KarisHair<T>,
     inp: &KarisInputs<'_, T>,
     out: &mut [T],
@@ -333,14 +292,14 @@ pub fn karis_eval<T: Real, const LOBES: bool>(
         ) {
             let inp = self.0;
             if LOBES {
-                par_map::<T, 12, _>(self.1, |i| match inp.at(i) {
+                par_map::<T, 12, _>(self.1, |i| match karis_at(inp, i) {
                     Some((l, v, t, tr)) => {
                         flatten_lobes(&m.lobes_static::<R, TT, TRT, MS>(&l, &v, &t, &tr))
                     }
                     None => [T::ZERO; 12],
                 });
             } else {
-                par_map::<T, 3, _>(self.1, |i| match inp.at(i) {
+                par_map::<T, 3, _>(self.1, |i| match karis_at(inp, i) {
                     Some((l, v, t, tr)) => {
                         m.lobes_static::<R, TT, TRT, MS>(&l, &v, &t, &tr).total()
                     }
@@ -349,51 +308,7 @@ pub fn karis_eval<T: Real, const LOBES: bool>(
             }
         }
     }
-    if let Some((m32, inp32, out32)) = as_f32(m, inp, out) {
-        if !m32.fast_asin() {
-            return karis_eval_simd::<LOBES>(m32, &inp32, out32, crate::simd::Level::detect());
-        }
-    }
     m.dispatch(V::<T, LOBES>(inp, out));
-}
-
-fn is_f32<T: Real>() -> bool {
-    std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>()
-}
-
-/// `a` as `f32` when `T` is `f32`.
-fn cast_f32<T: Real>(a: &[T]) -> Option<&[f32]> {
-    // SAFETY: T is f32 (checked), a cast to the same type.
-    is_f32::<T>().then(|| unsafe { std::slice::from_raw_parts(a.as_ptr() as *const f32, a.len()) })
-}
-
-/// `a` as `f32` when `T` is `f32`.
-fn cast_f32_mut<T: Real>(a: &mut [T]) -> Option<&mut [f32]> {
-    // SAFETY: T is f32 (checked), a cast to the same type.
-    is_f32::<T>()
-        .then(|| unsafe { std::slice::from_raw_parts_mut(a.as_mut_ptr() as *mut f32, a.len()) })
-}
-
-/// The same batch seen as `f32` when `T` is `f32`.
-fn as_f32<'a, 'b, T: Real>(
-    m: &'a KarisHair<T>,
-    inp: &KarisInputs<'b, T>,
-    out: &'a mut [T],
-) -> Option<(&'a KarisHair<f32>, KarisInputs<'b, f32>, &'a mut [f32])> {
-    let cast = |a: &'b [T]| cast_f32(a).expect("T is f32");
-    let out = cast_f32_mut(out)?;
-    let inp32 = KarisInputs {
-        l: cast(inp.l),
-        v: cast(inp.v),
-        t: cast(inp.t),
-        shadow: cast(inp.shadow),
-        global_scattering: cast(inp.global_scattering),
-        local_scattering: cast(inp.local_scattering),
-        opaque_visibility: cast(inp.opaque_visibility),
-    };
-    // SAFETY: T is f32 (cast_f32_mut succeeded): the same type.
-    let m32 = unsafe { &*(m as *const KarisHair<T> as *const KarisHair<f32>) };
-    Some((m32, inp32, out))
 }
 
 /// [`karis_eval`] for `f32` on the vector kernel ([`crate::simd`]) at
@@ -422,16 +337,8 @@ pub fn karis_eval_simd<const LOBES: bool>(
 /// Batched [`ChiangHair::eval`] (out `3N`); degenerate pairs give 0. `f32`
 /// models with [`I0Mode::Exact`] run on the vector kernel
 /// ([`chiang_eval_simd`]), the others on the scalar one.
-pub fn chiang_eval<T: Real>(m: &ChiangHair<T>, wi: &[T], wo: &[T], out: &mut [T]) {
-    if m.i0_mode() == I0Mode::Exact {
-        if let (Some(a), Some(b)) = (cast_f32(wi), cast_f32(wo)) {
-            let out32 = cast_f32_mut(out).expect("T is f32");
-            // SAFETY: T is f32 (cast_f32 succeeded): the same type.
-            let m32 = unsafe { &*(m as *const ChiangHair<T> as *const ChiangHair<f32>) };
-            return chiang_eval_simd(m32, a, b, out32, crate::simd::Level::detect());
-        }
-    }
-    map_pairs_rgb(wi, wo, out, |a, b| m.eval(a, b));
+pub fn chiang_eval<T: Precision>(m: &ChiangHair<T>, wi: &[T], wo: &[T], out: &mut [T]) {
+    T::chiang_eval(m, wi, wo, out)
 }
 
 /// [`ChiangHair::eval`] for `f32` on the vector kernel at `level` (at most

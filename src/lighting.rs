@@ -3,6 +3,10 @@
 use crate::fiber::frame::Vec3;
 use crate::math::Real;
 
+/// The constant SH basis function Y00 = 1/(2√π): a constant radiance L
+/// has the single coefficient L / Y00.
+pub const Y00: f64 = 0.282_094_791_773_878_1;
+
 /// Real spherical-harmonic basis up to band 2 (9 functions) at a unit
 /// direction, in the usual order: Y00; Y1-1 (y), Y10 (z), Y11 (x);
 /// Y2-2 (xy), Y2-1 (yz), Y20 (3z²−1), Y21 (xz), Y22 (x²−y²).
@@ -11,7 +15,7 @@ pub fn sh9_basis<T: Real>(d: &Vec3<T>) -> [T; 9] {
     let (x, y, z) = (d[0], d[1], d[2]);
     let c = |v: f64| T::from_f64(v);
     [
-        c(0.282_094_791_773_878_1),
+        c(Y00),
         c(0.488_602_511_902_919_9) * y,
         c(0.488_602_511_902_919_9) * z,
         c(0.488_602_511_902_919_9) * x,

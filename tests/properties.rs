@@ -7,8 +7,9 @@
 //! The Python suite (tests/test_stress.py) runs the same properties through
 //! the bindings with hypothesis.
 
-use hairshade::batch::{chiang_eval_simd, karis_eval_simd, KarisInputs};
+use hairshade::batch::{chiang_eval_simd, karis_eval_simd};
 use hairshade::fiber::deon::DEonParams;
+use hairshade::fiber::karis::KarisInputs;
 use hairshade::fiber::karis::{Absorption, Components, KarisParams, Transmittance};
 use hairshade::fiber::{ChiangHair, ChiangParams};
 use hairshade::simd::Level;

@@ -15,6 +15,8 @@ import pytest
 
 import hairshade as hs
 from hairshade import _native
+from hairshade.render import _native_scene
+from hairshade.render import _native_scene
 from hairshade.references import CASES, KARIS_CASES, comparison_scene, karis_reference_path, karis_scene, reference_path
 
 DATA = pathlib.Path(__file__).parent / "data"
@@ -152,12 +154,9 @@ def test_06_progress_callback_and_cancel():
         calls.append((done, total))
         raise RuntimeError("stop")
 
+    cam = dict(s.camera, width=640, height=360)
     with pytest.raises(RuntimeError, match="stop"):
-        _native.render(
-            (s.camera["position"], s.camera["target"], s.camera["up"], s.camera["fov"], 640, 360),
-            [(l["type"], l["vector"], l["intensity"], l["shadows"]) for l in s.lights], None,
-            s.points.reshape(-1), s.radii, s.offsets, [], s.hair._native, "sorted", 4, 1024, 20.0, 1, [0, 0, 0], cb,
-        )
+        _native.render(_native_scene(s, cam), dict(s.render, transparency="sorted"), cb)
     assert calls and calls[0][1] == 40 * 23
 
 
@@ -322,7 +321,7 @@ def test_13_vertex_shading_close_to_pixel_shading():
     vx = hs.render(s, width=160, height=90, shading="vertex")
     e = hs.rel_mse(vx, px)
     assert 0 < e < 1e-3, e
-    with pytest.raises(ValueError, match="shading: must be"):
+    with pytest.raises(ValueError, match="shading: expected .pixel. or .vertex."):
         hs.render(s, shading="face")
     with pytest.raises(hs.SceneError, match="render.shading: expected"):
         hs.Scene.from_dict({**d, "render": {"shading": "flat"}})

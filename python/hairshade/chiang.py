@@ -13,15 +13,15 @@ _I0_MODES = ("exact", "mitsuba")
 
 
 def azimuthal_scale(beta_n: float) -> float:
-    """Chiang eq. 8: logistic scale s for azimuthal roughness beta_n."""
-    b = max(float(beta_n), 1e-3)
-    return float(np.sqrt(np.pi / 8) * (0.265 * b + 1.194 * b * b + 5.372 * b**22))
+    """Chiang eq. 8: logistic scale s for azimuthal roughness beta_n
+    (values below 1e-3 use 1e-3)."""
+    return float(_native.chiang_azimuthal_scale(float(beta_n)))
 
 
 def longitudinal_variance(beta_m: float) -> float:
-    """Chiang eq. 7: R-lobe longitudinal variance v for roughness beta_m."""
-    b = max(float(beta_m), 1e-3)
-    return float((0.726 * b + 0.812 * b * b + 3.7 * b**20) ** 2)
+    """Chiang eq. 7: R-lobe longitudinal variance v for roughness beta_m
+    (values below 1e-3 use 1e-3)."""
+    return float(_native.chiang_longitudinal_variance(float(beta_m)))
 
 
 class ChiangHair:
@@ -102,12 +102,7 @@ class ChiangHair:
     @property
     def sigma_a(self) -> np.ndarray:
         """The absorption coefficient in use (RGB), from sigma_a or melanin."""
-        p = self._params
-        if p["sigma_a"] is not None:
-            return np.array(p["sigma_a"])
-        eu = 1.3 if p["eumelanin"] is None else p["eumelanin"]
-        ph = 0.2 if p["pheomelanin"] is None else p["pheomelanin"]
-        return eu * np.array([0.419, 0.697, 1.37]) + ph * np.array([0.187, 0.4, 1.05])
+        return np.array(self._native.sigma_a)
 
     @property
     def variances(self) -> tuple[float, float, float, float]:
@@ -129,10 +124,9 @@ class ChiangHair:
         return f"ChiangHair({args})"
 
     # -- evaluation ----------------------------------------------------------
-    def _rgb(self, name: str, wi: object, wo: object) -> np.ndarray:
+    def _rgb(self, native_op: Any, wi: object, wo: object) -> np.ndarray:
         a, b, dtype, n, single = _arrays.prepare_pairs(wi, wo)
-        suffix = "f32" if dtype == np.float32 else "f64"
-        out = getattr(self._native, f"{name}_{suffix}")(a, b).reshape(n, 3)
+        out = native_op(a, b).reshape(n, 3)
         return out[0] if single else out
 
     def eval(self, wi: object, wo: object) -> np.ndarray:
@@ -144,30 +138,28 @@ class ChiangHair:
         relative over 2^20 random pairs, as the scalar f32 kernel's 1.0e-5).
         A ``wi`` exactly along the tangent has no azimuth; the vector kernel
         takes phi_i = pi/2 there, the scalar one atan2(0, 0) = 0."""
-        return self._rgb("eval", wi, wo)
+        return self._rgb(self._native.eval, wi, wo)
 
     def eval_far(self, wi: object, wo: object) -> np.ndarray:
         """Far-field BSDF: ``eval`` averaged over h in [-1, 1] (the normal
         rotated about the tangent). Depends only on theta_i, theta_o and
         phi_o - phi_i. Converged to 1e-6 relative (quadrature order chosen
         from the azimuthal roughness; see ``far_field_order``)."""
-        return self._rgb("eval_far", wi, wo)
+        return self._rgb(self._native.eval_far, wi, wo)
 
     def eval_far_lobes(self, wi: object, wo: object) -> dict[str, np.ndarray]:
         """``eval_far`` split by path: {"R", "TT", "TRT", "TRRT+"} -> (N, 3)
         each (the last is the residual of all longer paths); they sum to
         ``eval_far``."""
         a, b, dtype, n, single = _arrays.prepare_pairs(wi, wo)
-        f = self._native.eval_far_lobes_f32 if dtype == np.float32 else self._native.eval_far_lobes_f64
-        out = f(a, b).reshape(n, 4, 3)
+        out = self._native.eval_far_lobes(a, b).reshape(n, 4, 3)
         lobes = {k: out[:, i] for i, k in enumerate(("R", "TT", "TRT", "TRRT+"))}
         return {k: v[0] for k, v in lobes.items()} if single else lobes
 
     def pdf(self, wi: object, wo: object) -> np.ndarray:
         """Solid-angle density of ``sample``: (N,3),(N,3) -> (N,)."""
         a, b, dtype, n, single = _arrays.prepare_pairs(wi, wo)
-        f = self._native.pdf_f32 if dtype == np.float32 else self._native.pdf_f64
-        out = f(a, b)
+        out = self._native.pdf(a, b)
         return out[0] if single else out
 
     def sample(self, wi: object, u1: object, u2: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -182,6 +174,5 @@ class ChiangHair:
         if w.ndim == 2 and w.shape[0] != n:
             raise ValueError(f"wi: expected shape ({n}, 3) or (3,) to match u1 {a1.shape}, got {w.shape}")
         dtype = _arrays.common_dtype([w, a1, a2])
-        f = self._native.sample_f32 if dtype == np.float32 else self._native.sample_f64
-        wo, weight, pdf = f(_arrays.flat(w, dtype), _arrays.flat(a1, dtype), _arrays.flat(a2, dtype))
+        wo, weight, pdf = self._native.sample(_arrays.flat(w, dtype), _arrays.flat(a1, dtype), _arrays.flat(a2, dtype))
         return wo.reshape(n, 3), weight.reshape(n, 3), pdf

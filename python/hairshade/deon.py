@@ -69,14 +69,12 @@ class DEonHair:
     def eval(self, L, V, T) -> np.ndarray:
         """Sum of the enabled lobes: (N, 3)."""
         (l, v, t), dtype, n, single = _models.triples(L, V, T)
-        f = self._native.eval_f32 if dtype == np.float32 else self._native.eval_f64
-        out = f(l, v, t).reshape(n, 3)
+        out = self._native.eval((l, v, t)).reshape(n, 3)
         return out[0] if single else out
 
     def eval_lobes(self, L, V, T) -> dict[str, np.ndarray]:
         """{"R", "TT", "TRT"} -> (N, 3) each (disabled lobes are 0)."""
         (l, v, t), dtype, n, single = _models.triples(L, V, T)
-        f = self._native.eval_lobes_f32 if dtype == np.float32 else self._native.eval_lobes_f64
-        out = f(l, v, t).reshape(n, 3, 3)
+        out = self._native.eval((l, v, t), lobes=True).reshape(n, 3, 3)
         lobes = {name: out[:, k] for k, name in enumerate(("R", "TT", "TRT"))}
         return {k: v[0] for k, v in lobes.items()} if single else lobes

@@ -8,8 +8,7 @@ import numpy as np
 
 from . import _models
 from . import _native
-
-_Y00 = 0.28209479177387814
+from .lighting import sh_coefficients
 
 
 class KarisHair:
@@ -97,9 +96,7 @@ class KarisHair:
             _models.per_pair(opaque_visibility, "opaque_visibility", n, dtype, False),
         ]
         single = single and all(s for _, s in extras)
-        suffix = "f32" if dtype == np.float32 else "f64"
-        name = ("eval_lobes_" if lobes else "eval_") + suffix
-        out = getattr(self._native, name)(l, v, t, *(a for a, _ in extras))
+        out = self._native.eval((l, v, t), *(a for a, _ in extras), lobes=lobes)
         return out, n, single
 
     def eval(self, L, V, T, shadow=1.0, global_scattering=1.0, local_scattering=0.0, opaque_visibility=1.0) -> np.ndarray:
@@ -132,18 +129,9 @@ class KarisHair:
         coefficients (bands 0-1 / 0-2, order Y00, Y1-1, Y10, Y11, Y2-2, ...).
         Negative SH radiance (ringing) is clamped to 0.
         -> (N, 3); 0 where V is along T."""
-        c = np.asarray(sh, dtype=np.float64)
-        if c.shape == (3,):
-            c = np.vstack([c / _Y00, np.zeros((8, 3))])
-        elif c.shape == (4, 3):
-            c = np.vstack([c, np.zeros((5, 3))])
-        elif c.shape != (9, 3):
-            raise ValueError(f"sh: expected (3,), (4, 3) or (9, 3), got {c.shape}")
-        if not np.all(np.isfinite(c)):
-            raise ValueError("sh: coefficients must be finite")
+        c = sh_coefficients(sh)
         (v, t), dtype, n, single = _env_pairs(V, T)
-        f = self._native.eval_env_f32 if dtype == np.float32 else self._native.eval_env_f64
-        out = f(v, t, np.ascontiguousarray(c, dtype=dtype).reshape(-1)).reshape(n, 3)
+        out = self._native.eval_env(v, t, np.ascontiguousarray(c, dtype=dtype).reshape(-1)).reshape(n, 3)
         return out[0] if single else out
 
 

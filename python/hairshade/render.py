@@ -20,41 +20,49 @@ def render(
     transparency: str | None = None,
     layers: int | None = None,
     shading: str | None = None,
-    frustum_culling: bool = True,
-    backface_culling: bool = True,
-    opaque_culling: bool = True,
-    skip_unused: bool = True,
-    reuse_shadow_maps: bool = True,
-    light_cull_threshold: float = 1e-4,
+    frustum_culling: bool | None = None,
+    backface_culling: bool | None = None,
+    opaque_culling: bool | None = None,
+    skip_unused: bool | None = None,
+    reuse_shadow_maps: bool | None = None,
+    light_cull_threshold: float | None = None,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
     """Renders ``scene`` -> (H, W, 3) float32 linear radiance.
 
     ``width``/``height`` override the scene's resolution (if only one is
-    given the other follows the scene's aspect ratio); ``transparency``
-    ("mlab" or "sorted"), ``layers`` and ``shading`` ("pixel" or "vertex")
-    override the scene's render settings. ``frustum_culling`` drops strand
-    segments that reach no pixel before shading them (per-vertex shading
-    then shades only the vertices of the remaining segments; exact: the
-    image is identical). ``backface_culling`` skips the back faces of OBJ
-    meshes that are closed, consistently oriented outwards, seen from
-    outside and wholly in front of the camera (their back faces are always
-    hidden; other meshes are drawn two-sided). ``opaque_culling`` skips hair
-    behind a tile's farthest opaque surface (an exact skip: the image is
-    identical; off only to measure it). ``skip_unused`` compiles out model
-    terms that cannot contribute (KarisHair's MS block at Scatter 0; exact)
-    and builds no shadow map for a light that light culling skips at every
-    hair point (KarisHair, no opaque surfaces; exact: the map is never read).
-    ``reuse_shadow_maps`` takes the shadow maps of an earlier render in this
-    process when the geometry, the light and the shadow settings are the
-    same (a camera move; exact, the maps are deterministic; at most 4 maps,
-    32 MiB at the default size, are kept). ``light_cull_threshold``: with
-    KarisHair, a light whose irradiance times the model's upper bound is
-    below this radiance at a shading point is skipped there (on opaque
-    surfaces: irradiance/pi); a pixel changes
-    by at most threshold x lights (0 turns it off; the stats report the
-    number skipped and the largest skipped bound).
+    given the other follows the scene's aspect ratio). Every other keyword
+    overrides the scene's render option of the same name (None: the
+    scene's value, whose default is given here):
+
+    - ``transparency`` ("mlab", default, or "sorted"), ``layers`` (MLAB
+      layers, 1 to 64, default 4), ``shading`` ("pixel", default, or
+      "vertex");
+    - ``frustum_culling`` (default on) drops strand segments that reach no
+      pixel before shading them (per-vertex shading then shades only the
+      vertices of the remaining segments; exact: the image is identical);
+    - ``backface_culling`` (on) skips the back faces of OBJ meshes that are
+      closed, consistently oriented outwards, seen from outside and wholly
+      in front of the camera (their back faces are always hidden; other
+      meshes are drawn two-sided);
+    - ``opaque_culling`` (on) skips hair behind a tile's farthest opaque
+      surface (exact; off only to measure it);
+    - ``skip_unused`` (on) compiles out model terms that cannot contribute
+      (KarisHair's MS block at Scatter 0; exact) and builds no shadow map
+      for a light that light culling skips at every hair point (KarisHair;
+      exact: the map is never read);
+    - ``reuse_shadow_maps`` (on) takes the shadow maps of an earlier render
+      in this process when the geometry, the light and the shadow settings
+      are the same (a camera move; exact, the maps are deterministic; at
+      most 4 maps, 32 MiB at the default size, are kept);
+    - ``light_cull_threshold`` (1e-4): with KarisHair, a light whose
+      irradiance times the model's upper bound is below this radiance at a
+      shading point is skipped there (on opaque surfaces: irradiance/pi); a
+      pixel changes by at most threshold x lights (0 turns it off; the
+      stats report the number skipped and the largest skipped bound).
+
+    Ranges are checked by the renderer; a ``ValueError`` names the option.
     ``progress``: a progress bar on stderr (default: when stderr is a
     terminal). Ctrl-C stops the render (KeyboardInterrupt)."""
     cam = dict(scene.camera)
@@ -62,24 +70,14 @@ def render(
         w0, h0 = cam["width"], cam["height"]
         w = int(width) if width is not None else max(1, round(int(height) * w0 / h0))
         h = int(height) if height is not None else max(1, round(int(width) * h0 / w0))
-        if not (1 <= w <= 16384 and 1 <= h <= 16384):
-            raise ValueError(f"width, height: must be in [1, 16384], got {w}x{h}")
         cam["width"], cam["height"] = w, h
-    r = dict(scene.render)
-    if transparency is not None:
-        if transparency not in ("mlab", "sorted"):
-            raise ValueError(f"transparency: must be 'mlab' or 'sorted', got {transparency!r}")
-        r["transparency"] = transparency
-    if shading is not None:
-        if shading not in ("pixel", "vertex"):
-            raise ValueError(f"shading: must be 'pixel' or 'vertex', got {shading!r}")
-        r["shading"] = shading
-    if layers is not None:
-        if not 1 <= int(layers) <= 64:
-            raise ValueError(f"layers: must be in [1, 64], got {layers}")
-        r["layers"] = int(layers)
-    if not (np.isfinite(light_cull_threshold) and light_cull_threshold >= 0):
-        raise ValueError(f"light_cull_threshold: must be finite and >= 0, got {light_cull_threshold}")
+    options = dict(scene.render)
+    overrides = dict(
+        transparency=transparency, layers=layers, shading=shading, frustum_culling=frustum_culling,
+        backface_culling=backface_culling, opaque_culling=opaque_culling, skip_unused=skip_unused,
+        reuse_shadow_maps=reuse_shadow_maps, light_cull_threshold=light_cull_threshold,
+    )
+    options.update({k: v for k, v in overrides.items() if v is not None})
     show = sys.stderr.isatty() if progress is None else progress
     start = time.perf_counter()
 
@@ -89,41 +87,7 @@ def render(
         sys.stderr.flush()
 
     try:
-        flat, stats = _native.render(
-            (cam["position"], cam["target"], cam["up"], cam["fov"], cam["width"], cam["height"]),
-            [(l["type"], l["vector"], l["intensity"], l["shadows"]) for l in scene.lights],
-            None if scene.environment_sh is None else [float(x) for x in scene.environment_sh.reshape(-1)],
-            np.ascontiguousarray(scene.points, dtype=np.float32).reshape(-1),
-            np.ascontiguousarray(scene.radii, dtype=np.float32),
-            np.ascontiguousarray(scene.offsets, dtype=np.uint32),
-            [(s["center"], s["radius"], s["albedo"]) for s in scene.spheres],
-            scene.hair._native,
-            r["transparency"],
-            r["layers"],
-            r["shadow_map_size"],
-            r["shadow_density"],
-            r["pcf_radius"],
-            r["background"],
-            bar if show else None,
-            None if scene.cards is None else (
-                scene.cards["corners"].reshape(-1), scene.cards["uvs"].reshape(-1), scene.cards["tangents"].reshape(-1),
-                scene.cards["texture"],
-                [(t.shape[1], t.shape[0], t.reshape(-1).tolist()) for t in scene.cards["textures"]],
-            ),
-            r["shadow_model"],
-            r["shading"] == "vertex",
-            opaque_culling,
-            None if not scene.obj_meshes else (
-                np.concatenate([m["triangles"].reshape(-1) for m in scene.obj_meshes]).astype(np.float32),
-                np.concatenate([np.tile(np.asarray(m["albedo"], np.float32), len(m["triangles"])) for m in scene.obj_meshes]),
-                np.concatenate([np.full(len(m["triangles"]), i, np.uint32) for i, m in enumerate(scene.obj_meshes)]),
-            ),
-            skip_unused,
-            reuse_shadow_maps,
-            float(light_cull_threshold),
-            frustum_culling,
-            backface_culling,
-        )
+        flat, stats = _native.render(_native_scene(scene, cam), options, bar if show else None)
     finally:
         if show:
             sys.stderr.write("\n")
@@ -131,12 +95,39 @@ def render(
     return (img, dict(stats)) if return_stats else img
 
 
+def _native_scene(scene: Scene, cam: dict[str, Any]) -> dict[str, Any]:
+    """The scene as the flat arrays the renderer takes."""
+    f32 = lambda a: np.ascontiguousarray(a, dtype=np.float32).reshape(-1)  # noqa: E731
+    cards = scene.cards
+    meshes = scene.obj_meshes
+    return dict(
+        camera=(cam["position"], cam["target"], cam["up"], cam["fov"], cam["width"], cam["height"]),
+        lights=[(l["type"], l["vector"], l["intensity"], l["shadows"]) for l in scene.lights],
+        environment=None if scene.environment_sh is None else [float(x) for x in scene.environment_sh.reshape(-1)],
+        points=f32(scene.points),
+        radii=f32(scene.radii),
+        offsets=np.ascontiguousarray(scene.offsets, dtype=np.uint32),
+        spheres=[(s["center"], s["radius"], s["albedo"]) for s in scene.spheres],
+        hair=scene.hair._native,
+        cards=None if cards is None else dict(
+            corners=f32(cards["corners"]), uvs=f32(cards["uvs"]), tangents=f32(cards["tangents"]),
+            texture=np.ascontiguousarray(cards["texture"], dtype=np.uint32),
+            textures=[(t.shape[1], t.shape[0], f32(t)) for t in cards["textures"]],
+        ),
+        triangles=None if not meshes else (
+            f32(np.concatenate([m["triangles"].reshape(-1) for m in meshes])),  # positions
+            f32(np.concatenate([np.tile(np.asarray(m["albedo"], np.float32), len(m["triangles"])) for m in meshes])),
+            np.concatenate([np.full(len(m["triangles"]), i, np.uint32) for i, m in enumerate(meshes)]),  # mesh index
+        ),
+    )
+
+
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
     """Writes an (H, W, 3) image as a float32 RGB OpenEXR file."""
     a = np.ascontiguousarray(image, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
         raise ValueError(f"image: expected shape (H, W, 3), got {a.shape}")
-    _native.write_exr(os.fspath(path), a.shape[1], a.shape[0], a.reshape(-1))
+    _native.write_exr(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)))
 
 
 def read_exr(path: str | os.PathLike) -> np.ndarray:
@@ -150,7 +141,7 @@ def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0)
     a = np.ascontiguousarray(image, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
         raise ValueError(f"image: expected shape (H, W, 3), got {a.shape}")
-    _native.write_png(os.fspath(path), a.shape[1], a.shape[0], a.reshape(-1), float(exposure))
+    _native.write_png(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)), float(exposure))
 
 
 def rel_mse(image: np.ndarray, reference: np.ndarray, eps: float = 1e-2) -> float:

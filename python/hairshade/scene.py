@@ -48,6 +48,12 @@ A scene file::
   segment; cards are always shaded per pixel).
 - ``render.background`` is the radiance behind everything when the scene
   has no environment light; with one, the environment itself is seen.
+- ``render`` takes every render option of :func:`hairshade.render`
+  (``transparency``, ``layers``, ``shadow_map_size``, ``shadow_model``,
+  ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
+  culling switches, ``light_cull_threshold``); their types and ranges are
+  checked by the renderer itself (``hairshade._native.render_options``), the
+  one place they are defined.
 - Every field is checked on load; an error names the file, the field's path
   (``hair.strands[3].points[5]``) and what is wrong. Non-finite numbers are
   errors.
@@ -63,11 +69,12 @@ from typing import Any
 
 import numpy as np
 
+from . import _native
 from .chiang import ChiangHair
 from .karis import KarisHair
+from .lighting import sh_coefficients
 
 VERSION = 1
-_Y00 = 0.28209479177387814
 
 
 class SceneError(ValueError):
@@ -225,8 +232,7 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
                 env = np.array([c.vec3(x, f"{p}.sh[{k}]") for k, x in enumerate(sh)], dtype=np.float32)
             else:
                 rad = c.vec3(l.get("radiance"), f"{p}.radiance", 0)
-                env = np.zeros((9, 3), dtype=np.float32)
-                env[0] = np.array(rad) / _Y00
+                env = sh_coefficients(rad).astype(np.float32)
         else:
             c.fail(f"{p}.type", f"expected 'directional', 'point' or 'environment', got {kind!r}")
 
@@ -307,27 +313,11 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
                             albedo=c.vec3(m.get("albedo", [0.5, 0.5, 0.5]), f"{p}.albedo", 0, 1)))
 
     r = c.obj(d.get("render", {}), "render")
-    c.known(r, "render", {"transparency", "layers", "shadow_map_size", "shadow_model", "shadow_density", "pcf_radius",
-                          "background", "shading"})
-    shading = r.get("shading", "pixel")
-    if shading not in ("pixel", "vertex"):
-        c.fail("render.shading", f"expected 'pixel' or 'vertex', got {shading!r}")
-    shadow_model = r.get("shadow_model", "exponential")
-    if shadow_model not in ("opacity", "exponential"):
-        c.fail("render.shadow_model", f"expected 'opacity' or 'exponential', got {shadow_model!r}")
-    transparency = r.get("transparency", "mlab")
-    if transparency not in ("mlab", "sorted"):
-        c.fail("render.transparency", f"expected 'mlab' or 'sorted', got {transparency!r}")
-    render = dict(
-        transparency=transparency,
-        layers=int(c.num(r.get("layers", 4), "render.layers", 1, 64)),
-        shadow_map_size=int(c.num(r.get("shadow_map_size", 1024), "render.shadow_map_size", 16, 8192)),
-        shadow_model=shadow_model,
-        shading=shading,
-        shadow_density=c.num(r.get("shadow_density", 20.0), "render.shadow_density", 0),
-        pcf_radius=int(c.num(r.get("pcf_radius", 1), "render.pcf_radius", 0, 8)),
-        background=c.vec3(r.get("background", [0, 0, 0]), "render.background", 0),
-    )
+    try:
+        render = _native.render_options(r)
+    except ValueError as e:
+        key, _, msg = str(e).partition(": ")
+        c.fail(f"render.{key}", msg)
     scene = Scene(camera, lights, env, points, radii, offsets, spheres, mat, render, source)
     scene.cards = cards
     scene.obj_meshes = obj_meshes

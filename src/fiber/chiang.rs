@@ -49,14 +49,17 @@
 //! `I0Mode::Mitsuba` reproduces Mitsuba's truncated series, its switch to
 //! an asymptotic `log I0` at 12 and its `κ > 10` branch, constants included.
 
+mod far;
+mod sample;
 pub(crate) mod simd;
+pub use far::{composite_gamma_rule, far_field_nodes};
 
-use crate::fiber::frame::{azimuth, from_angles, offset, sin_cos_theta, Vec3};
+use crate::fiber::frame::{azimuth, offset, sin_cos_theta, Vec3};
 use crate::fiber::lobes::{deon_mp, deon_mp_mitsuba};
 use crate::fiber::{param_error, ParamError};
 use crate::math::{
-    circ, fresnel_dielectric, gauss_legendre, safe_asin, safe_sqrt, trimmed_logistic,
-    trimmed_logistic_inv_norm, trimmed_logistic_sample, wrap_pi, Real,
+    circ, fresnel_dielectric, safe_asin, safe_sqrt, trimmed_logistic, trimmed_logistic_inv_norm,
+    wrap_pi, Real,
 };
 
 /// Number of explicitly modelled lobes (R, TT, TRT); index `P_MAX` is the residual.
@@ -452,147 +455,6 @@ impl<T: Real> ChiangHair<T> {
         let d = self.lobe_densities(&g, &self.longitudinal_terms(&g), gamma_i, gamma_t);
         finite_or_zero(a_pdf[0] * d[0] + a_pdf[1] * d[1] + a_pdf[2] * d[2] + a_pdf[3] * d[3])
     }
-
-    /// Importance-samples `wo` for unit `wi`. `u1` picks the lobe (and is
-    /// reused, rescaled, for the azimuth); `u2` drives θ and the azimuth.
-    /// Returns `(wo, f/pdf, pdf)`; `pdf == 0` marks a failed sample (weight 0).
-    pub fn sample(&self, wi: &Vec3<T>, u1: T, u2: [T; 2]) -> (Vec3<T>, [T; 3], T) {
-        let (sin_theta_i, cos_theta_i) = sin_cos_theta(wi);
-        let (gamma_i, h, cos_gamma_i) = offset(wi);
-        let phi_i = azimuth(wi);
-        let (gamma_t, transmittance) = self.transmission(sin_theta_i, cos_theta_i, h);
-        let a_pdf =
-            Self::attenuation_pdf(&self.attenuation(cos_theta_i, cos_gamma_i, transmittance));
-
-        // Choose the lobe p by inverting the discrete CDF of A_p; keep the
-        // remainder of u1, rescaled to [0, 1], for the azimuthal sample.
-        let mut u0 = u1;
-        let mut u_phi = if a_pdf[0] > T::ZERO {
-            u0 / a_pdf[0]
-        } else {
-            T::ZERO
-        };
-        let mut p = 0;
-        for i in 0..P_MAX {
-            let take = a_pdf[i] < u0;
-            u0 -= a_pdf[i];
-            if take {
-                p = i + 1;
-                u_phi = if a_pdf[i + 1] > T::ZERO {
-                    u0 / a_pdf[i + 1]
-                } else {
-                    T::ZERO
-                };
-            }
-        }
-        let u_phi = u_phi.max(T::ZERO).min(T::ONE);
-
-        // Longitudinal sample about the tilted specular cone.
-        let (sin_ip, cos_ip) = self.reframe_with_scales(sin_theta_i, cos_theta_i, p);
-        let v = self.v[p];
-        let u_theta = u2[0].max(T::from_f64(1e-5));
-        let cos_theta = (T::ONE + v * (u_theta + (T::ONE - u_theta) * (-T::TWO / v).exp()).ln())
-            .max(-T::ONE)
-            .min(T::ONE);
-        let sin_theta = circ(cos_theta);
-        let cos_phi = (T::TWO_PI * u2[1]).cos();
-        let sin_theta_o = (-cos_theta * sin_ip + sin_theta * cos_phi * cos_ip)
-            .max(-T::ONE)
-            .min(T::ONE);
-        let cos_theta_o = circ(sin_theta_o);
-
-        // Azimuthal sample about the perfect-specular azimuth (uniform for the residual).
-        let delta_phi = if p < P_MAX {
-            let pf = T::from_f64(p as f64);
-            T::TWO * pf * gamma_t - T::TWO * gamma_i
-                + pf * T::PI
-                + trimmed_logistic_sample(u_phi, self.s)
-        } else {
-            T::TWO_PI * u_phi
-        };
-        let wo = from_angles(sin_theta_o, cos_theta_o, phi_i + delta_phi);
-
-        let g = Geometry {
-            sin_theta_i,
-            cos_theta_i,
-            sin_theta_o,
-            cos_theta_o,
-            delta_phi,
-        };
-        let d = self.lobe_densities(&g, &self.longitudinal_terms(&g), gamma_i, gamma_t);
-        let pdf =
-            finite_or_zero(a_pdf[0] * d[0] + a_pdf[1] * d[1] + a_pdf[2] * d[2] + a_pdf[3] * d[3]);
-        if pdf <= T::ZERO {
-            return (wo, [T::ZERO; 3], T::ZERO);
-        }
-        let f = self.eval(wi, &wo);
-        (wo, finite_or_zero3(f.map(|x| x / pdf)), pdf)
-    }
-
-    /// Far-field BSDF: the near-field `eval` averaged over the offset
-    /// h ∈ [-1, 1] (the normal rotated about the tangent), i.e.
-    /// `½ ∫ f(θi, θo, Δφ; h) dh`. Depends on `wi`, `wo` only through θi, θo
-    /// and φo − φi. Integrated over γ = asin h (removing the endpoint
-    /// singularity of dγ/dh) by composite Gauss–Legendre; M_p does not depend
-    /// on h and is evaluated once.
-    pub fn eval_far(&self, wi: &Vec3<T>, wo: &Vec3<T>) -> [T; 3] {
-        let l = self.eval_far_lobes(wi, wo);
-        finite_or_zero3(std::array::from_fn(|c| {
-            l[0][c] + l[1][c] + l[2][c] + l[3][c]
-        }))
-    }
-
-    /// The far field split into R, TT, TRT and the residual (p ≥ 3), RGB each.
-    pub fn eval_far_lobes(&self, wi: &Vec3<T>, wo: &Vec3<T>) -> [[T; 3]; P_MAX + 1] {
-        let g = Self::geometry(wi, wo);
-        let m = self.longitudinal_terms(&g);
-        let mut sum = [[T::ZERO; 3]; P_MAX + 1];
-        for &[gamma_i, h, cos_gamma_i, weight] in &self.far_nodes {
-            let (gamma_t, transmittance) = self.transmission(g.sin_theta_i, g.cos_theta_i, h);
-            let a = self.attenuation(g.cos_theta_i, cos_gamma_i, transmittance);
-            let d = self.lobe_densities(&g, &m, gamma_i, gamma_t);
-            for p in 0..=P_MAX {
-                for c in 0..3 {
-                    sum[p][c] += weight * a[p][c] * d[p];
-                }
-            }
-        }
-        sum.map(finite_or_zero3)
-    }
-}
-
-/// Nodes per panel of the far-field rule.
-const FAR_NODES_PER_PANEL: usize = 8;
-
-/// Composite Gauss–Legendre nodes over γ ∈ [-π/2, π/2] with weights
-/// `½ w cos γ` (so that Σ weight · f(γ) ≈ ½ ∫ f dh).
-///
-/// The integrand's sharpest feature is N_p, a logistic of scale s in
-/// Δφ − Φ_p(γ) with |dΦ_p/dγ| ≤ 2 away from the TRT caustic, so its width
-/// in γ is about s/2: panels ≈ 0.9 s wide, 8 nodes each. The wrap of N_p at
-/// ±π leaves a kink that limits convergence to second order for very rough
-/// fibers, hence at least 48 panels. Measured against a 16 000-node rule
-/// (`tests/test_chiang_far.py`): 6e-11 relative at the default roughness,
-/// 4e-7 at β_n = 1, below 1e-12 for β_n ≤ 0.1.
-pub fn far_field_nodes(s: f64) -> Vec<(f64, f64)> {
-    let panels = ((std::f64::consts::PI / (0.9 * s)).ceil() as usize).clamp(48, 4096);
-    composite_gamma_rule(panels, FAR_NODES_PER_PANEL)
-}
-
-/// `panels` × `nodes` composite Gauss–Legendre over γ ∈ [-π/2, π/2],
-/// weights `½ w cos γ`.
-pub fn composite_gamma_rule(panels: usize, nodes: usize) -> Vec<(f64, f64)> {
-    let (x, w) = gauss_legendre(nodes);
-    let width = std::f64::consts::PI / panels as f64;
-    let mut out = Vec::with_capacity(panels * nodes);
-    for k in 0..panels {
-        let a = -std::f64::consts::FRAC_PI_2 + k as f64 * width;
-        for (xi, wi) in x.iter().zip(&w) {
-            let g = a + 0.5 * width * (xi + 1.0);
-            out.push((g, 0.5 * 0.5 * width * wi * g.cos()));
-        }
-    }
-    out
 }
 
 #[inline(always)]
@@ -617,6 +479,7 @@ fn finite_or_zero3<T: Real>(x: [T; 3]) -> [T; 3] {
 mod tests {
     use super::*;
     use crate::fiber::frame::normalized;
+    use crate::math::gauss_legendre;
 
     fn model(i0: I0Mode) -> ChiangHair<f64> {
         ChiangParams {

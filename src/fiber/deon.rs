@@ -4,7 +4,8 @@
 //! d'Eon, Francois, Hill, Letteri, Aubry, "An Energy-Conserving Hair
 //! Reflectance Model", EGSR 2011 (M_p, and N_p as an integral over the offset
 //! h with a Gaussian detector); d'Eon et al. 2014 for the azimuth-dependent R
-//! width; the shader walk-through in `seeds/001` for the exact terms.
+//! width; the exact terms as Unreal Engine 4's shader source
+//! `Engine/Shaders/Private/HairBsdf.ush` (`HairShadingRef()`) computes them.
 //!
 //! ```text
 //! S = Σ_{p ∈ R, TT, TRT} M_p(θL, θV'_p; v_p) · N_p(φ)

@@ -1,7 +1,8 @@
 //! Karis 2016 real-time hair shading: UE4's `HairShading()`, term by term.
 //!
 //! B. Karis, "Physically Based Hair Shading in Unreal", SIGGRAPH 2016
-//! course; the shader walk-through in `seeds/001` is the specification.
+//! course; the terms exactly as Unreal Engine 4's shader source
+//! `Engine/Shaders/Private/HairBsdf.ush` (`HairShading()`) computes them.
 //! World-space unit vectors: `L` (to the light), `V` (to the viewer), `T`
 //! (fiber tangent). `sin θL = T·L`, `sin θV = T·V`,
 //! `cos θd = cos(½|asin sin θV − asin sin θL|)`, `cos φ` between the
@@ -57,7 +58,11 @@ use crate::fiber::{param_error, ParamError};
 use crate::lighting::sh9_eval;
 use crate::math::Real;
 
+mod dispatch;
+mod inputs;
 pub(crate) mod simd;
+pub use dispatch::LobeVisitor;
+pub use inputs::KarisInputs;
 
 /// Index of refraction fixed by the model (the η' fit is made for it).
 pub const KARIS_ETA: f64 = 1.55;
@@ -559,46 +564,6 @@ impl<T: Real> KarisHair<T> {
     pub fn eval(&self, l: &Vec3<T>, v: &Vec3<T>, t: &Vec3<T>, tr: &Transmittance<T>) -> [T; 3] {
         self.lobes(l, v, t, tr).total()
     }
-
-    /// Runs `visitor` with the kernel monomorphized for this model's
-    /// components: one branch per call, none per element.
-    #[inline]
-    pub fn dispatch<V: LobeVisitor<T>>(&self, visitor: V) -> V::Out {
-        let c = self.components;
-        macro_rules! k {
-            ($r:literal, $tt:literal, $trt:literal, $ms:literal) => {
-                visitor.visit::<$r, $tt, $trt, $ms>(self)
-            };
-        }
-        match (c.r, c.tt, c.trt, c.ms) {
-            (true, true, true, true) => k!(true, true, true, true),
-            (true, true, true, false) => k!(true, true, true, false),
-            (true, true, false, true) => k!(true, true, false, true),
-            (true, true, false, false) => k!(true, true, false, false),
-            (true, false, true, true) => k!(true, false, true, true),
-            (true, false, true, false) => k!(true, false, true, false),
-            (true, false, false, true) => k!(true, false, false, true),
-            (true, false, false, false) => k!(true, false, false, false),
-            (false, true, true, true) => k!(false, true, true, true),
-            (false, true, true, false) => k!(false, true, true, false),
-            (false, true, false, true) => k!(false, true, false, true),
-            (false, true, false, false) => k!(false, true, false, false),
-            (false, false, true, true) => k!(false, false, true, true),
-            (false, false, true, false) => k!(false, false, true, false),
-            (false, false, false, true) => k!(false, false, false, true),
-            (false, false, false, false) => k!(false, false, false, false),
-        }
-    }
-}
-
-/// Code run with a [`KarisHair`] kernel specialised for one set of
-/// components (see [`KarisHair::dispatch`]).
-pub trait LobeVisitor<T: Real> {
-    type Out;
-    fn visit<const R: bool, const TT: bool, const TRT: bool, const MS: bool>(
-        self,
-        m: &KarisHair<T>,
-    ) -> Self::Out;
 }
 
 /// `c^e` with `0^0 = 1` and `0^e = 0` for e > 0 (HLSL `pow` on [0, 1] colors).

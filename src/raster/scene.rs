@@ -209,6 +209,17 @@ pub struct RenderOptions {
     pub light_cull_threshold: f32,
 }
 
+impl RenderOptions {
+    /// Inclusive range of the MLAB layer count.
+    pub const LAYERS: (usize, usize) = (1, 64);
+    /// Inclusive range of the shadow-map resolution.
+    pub const SHADOW_MAP_SIZE: (u32, u32) = (16, 8192);
+    /// Inclusive range of the PCF radius.
+    pub const PCF_RADIUS: (i32, i32) = (0, 8);
+    /// Largest image side.
+    pub const MAX_RESOLUTION: u32 = 16384;
+}
+
 impl Default for RenderOptions {
     fn default() -> Self {
         Self {

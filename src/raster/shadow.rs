@@ -8,11 +8,13 @@
 //!   slabs behind the first hair; a receiver sees `exp(−Σ optical depth in
 //!   front of it)`. Memory: `SLABS` floats per texel.
 //! - `Exponential` (default, Karis 2016): `exp(−density · (z − z_first_hair))`.
+//!
 //! Directional lights use an orthographic map over the scene's bounding
 //! sphere, point lights a perspective map from the light towards it.
 
+use super::coverage::{ray_sphere, Tri2};
 use super::scene::{Light, RenderOptions, Scene};
-use super::{ray_sphere, Tri2};
+use super::setup::{Bounds, WorldSegment};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -43,63 +45,67 @@ pub enum ShadowModel {
     Exponential,
 }
 
+/// The light's view: an origin (the eye of a point light) and basis, and
+/// the projection.
 #[derive(Debug, Clone, Copy)]
-enum LightProjection {
-    /// Orthographic: origin, basis, half extent.
-    Ortho {
-        origin: Vec3,
-        right: Vec3,
-        up: Vec3,
-        forward: Vec3,
-        half: f32,
-    },
-    /// Perspective from a point light: eye, basis, focal (in map units).
-    Persp {
-        eye: Vec3,
-        right: Vec3,
-        up: Vec3,
-        forward: Vec3,
-        tan_half: f32,
-    },
+struct LightProjection {
+    origin: Vec3,
+    right: Vec3,
+    up: Vec3,
+    forward: Vec3,
+    kind: Projection,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Projection {
+    /// Orthographic over a square of half extent `half`.
+    Ortho { half: f32 },
+    /// Perspective with `tan_half` the tangent of the half field of view.
+    Persp { tan_half: f32 },
 }
 
 impl LightProjection {
     /// (u, v) in [0, 1]² and depth along the light.
     #[inline]
     fn map(&self, p: Vec3) -> Option<(f32, f32, f32)> {
-        match *self {
-            LightProjection::Ortho {
-                origin,
-                right,
-                up,
-                forward,
-                half,
-            } => {
-                let d = p - origin;
-                Some((
-                    0.5 + 0.5 * d.dot(right) / half,
-                    0.5 - 0.5 * d.dot(up) / half,
-                    d.dot(forward),
-                ))
-            }
-            LightProjection::Persp {
-                eye,
-                right,
-                up,
-                forward,
-                tan_half,
-            } => {
-                let d = p - eye;
-                let z = d.dot(forward);
+        let d = p - self.origin;
+        match self.kind {
+            Projection::Ortho { half } => Some((
+                0.5 + 0.5 * d.dot(self.right) / half,
+                0.5 - 0.5 * d.dot(self.up) / half,
+                d.dot(self.forward),
+            )),
+            Projection::Persp { tan_half } => {
+                let z = d.dot(self.forward);
                 if z <= 0.0 {
                     return None;
                 }
                 Some((
-                    0.5 + 0.5 * d.dot(right) / (z * tan_half),
-                    0.5 - 0.5 * d.dot(up) / (z * tan_half),
+                    0.5 + 0.5 * d.dot(self.right) / (z * tan_half),
+                    0.5 - 0.5 * d.dot(self.up) / (z * tan_half),
                     z,
                 ))
             }
+        }
+    }
+
+    /// The ray (origin, unit direction) through map position (u, v).
+    #[inline]
+    fn ray(&self, u: f32, v: f32) -> (Vec3, Vec3) {
+        match self.kind {
+            Projection::Ortho { half } => (
+                self.origin
+                    + self.right * ((2.0 * u - 1.0) * half)
+                    + self.up * ((1.0 - 2.0 * v) * half),
+                self.forward,
+            ),
+            Projection::Persp { tan_half } => (
+                self.origin,
+                (self.forward
+                    + self.right * ((2.0 * u - 1.0) * tan_half)
+                    + self.up * ((1.0 - 2.0 * v) * tan_half))
+                    .normalize(),
+            ),
         }
     }
 }
@@ -114,11 +120,11 @@ impl ShadowMap {
     pub fn build(
         light: &Light,
         scene: &Scene,
-        segments: &[(Vec3, Vec3, f32, f32)],
-        center: Vec3,
-        radius: f32,
+        segments: &[WorldSegment],
+        bounds: Bounds,
         opts: &RenderOptions,
     ) -> Option<Self> {
+        let Bounds { center, radius } = bounds;
         let proj = match *light {
             Light::Directional {
                 direction,
@@ -127,12 +133,12 @@ impl ShadowMap {
             } => {
                 let forward = -direction.normalize_or(Vec3::Z);
                 let (right, up) = basis(forward);
-                LightProjection::Ortho {
+                LightProjection {
                     origin: center - forward * (2.0 * radius),
                     right,
                     up,
                     forward,
-                    half: radius,
+                    kind: Projection::Ortho { half: radius },
                 }
             }
             Light::Point {
@@ -150,12 +156,12 @@ impl ShadowMap {
                 } else {
                     4.0
                 };
-                LightProjection::Persp {
-                    eye: position,
+                LightProjection {
+                    origin: position,
                     right,
                     up,
                     forward,
-                    tan_half,
+                    kind: Projection::Persp { tan_half },
                 }
             }
             _ => return None,
@@ -194,7 +200,7 @@ impl ShadowMap {
 
     /// First-hair depth of the strands, drawn in parallel
     /// ([`Self::min_depth_in_parallel`]).
-    fn draw_hair(&mut self, segments: &[(Vec3, Vec3, f32, f32)]) {
+    fn draw_hair(&mut self, segments: &[WorldSegment]) {
         self.min_depth_in_parallel(segments.len(), |this, range, buf| {
             this.draw_hair_into(&segments[range], buf)
         });
@@ -209,11 +215,11 @@ impl ShadowMap {
         count: usize,
         draw: impl Fn(&Self, std::ops::Range<usize>, &mut [f32]) + Sync,
     ) {
-        let parts = crate::batch::num_threads().clamp(1, 8);
+        let parts = crate::threads::num_threads().clamp(1, 8);
         let per = count.div_ceil(parts).max(1);
         let texels = self.hair.len();
         let this = &*self;
-        let bufs: Vec<Vec<f32>> = crate::batch::pool().install(|| {
+        let bufs: Vec<Vec<f32>> = crate::threads::pool().install(|| {
             (0..count.div_ceil(per))
                 .into_par_iter()
                 .map(|k| {
@@ -232,9 +238,9 @@ impl ShadowMap {
         }
     }
 
-    fn draw_hair_into(&self, segments: &[(Vec3, Vec3, f32, f32)], hair: &mut [f32]) {
+    fn draw_hair_into(&self, segments: &[WorldSegment], hair: &mut [f32]) {
         let n = self.size as f32;
-        for &(a, b, ra, rb) in segments {
+        for &WorldSegment { a, b, ra, rb } in segments {
             let (Some(pa), Some(pb)) = (self.proj.map(a), self.proj.map(b)) else {
                 continue;
             };
@@ -243,9 +249,9 @@ impl ShadowMap {
             let steps = ((bx - ax).abs().max((by - ay).abs()).ceil() as usize)
                 .clamp(1, 4 * self.size as usize);
             // Thick lines: every texel within max(half a texel, the radius) of the segment.
-            let half_w = match self.proj {
-                LightProjection::Ortho { half, .. } => 0.5 * (ra.max(rb)) / half * n,
-                LightProjection::Persp { tan_half, .. } => {
+            let half_w = match self.proj.kind {
+                Projection::Ortho { half } => 0.5 * (ra.max(rb)) / half * n,
+                Projection::Persp { tan_half } => {
                     0.5 * ra.max(rb) / (pa.2.min(pb.2).max(1e-6) * tan_half) * n
                 }
             }
@@ -324,9 +330,8 @@ impl ShadowMap {
                 let Some(tri) = Tri2::new([0, 1, 2].map(|k| [m[k].0 * n, m[k].1 * n])) else {
                     continue;
                 };
-                let (x0, x1, y0, y1) = tri.bounds;
-                let (x0, x1) = (x0.max(0), x1.min(self.size as i64 - 1));
-                let (y0, y1) = (y0.max(0), y1.min(self.size as i64 - 1));
+                let b = tri.bounds.local(0, 0, self.size, self.size);
+                let (x0, x1, y0, y1) = (b.x0, b.x1, b.y0, b.y1);
                 let tex = &c.textures[c.texture[q] as usize];
                 for yi in y0..=y1 {
                     for xi in x0..=x1 {
@@ -359,16 +364,16 @@ impl ShadowMap {
     /// Strands' optical depth: each segment visits the texels of its
     /// bounding box once, with the same tent coverage as the screen
     /// rasterizer (strands thinner than a texel scale their coverage).
-    fn accumulate_hair(&mut self, segments: &[(Vec3, Vec3, f32, f32)]) {
+    fn accumulate_hair(&mut self, segments: &[WorldSegment]) {
         let n = self.size as f32;
-        for &(a, b, ra, rb) in segments {
+        for &WorldSegment { a, b, ra, rb } in segments {
             let (Some(pa), Some(pb)) = (self.proj.map(a), self.proj.map(b)) else {
                 continue;
             };
             let (ax, ay, bx, by) = (pa.0 * n, pa.1 * n, pb.0 * n, pb.1 * n);
-            let texels_per_unit = |z: f32| match self.proj {
-                LightProjection::Ortho { half, .. } => 0.5 * n / half,
-                LightProjection::Persp { tan_half, .. } => 0.5 * n / (z.max(1e-6) * tan_half),
+            let texels_per_unit = |z: f32| match self.proj.kind {
+                Projection::Ortho { half } => 0.5 * n / half,
+                Projection::Persp { tan_half } => 0.5 * n / (z.max(1e-6) * tan_half),
             };
             let (wa, wb) = (
                 2.0 * ra * texels_per_unit(pa.2),
@@ -421,9 +426,9 @@ impl ShadowMap {
             let Some(tri) = Tri2::new([0, 1, 2].map(|k| [m[k].0 * n, m[k].1 * n])) else {
                 continue;
             };
-            let (x0, x1, y0, y1) = tri.bounds;
-            for yi in y0.max(0)..=y1.min(self.size as i64 - 1) {
-                for xi in x0.max(0)..=x1.min(self.size as i64 - 1) {
+            let b = tri.bounds.local(0, 0, self.size, self.size);
+            for yi in b.y0..=b.y1 {
+                for xi in b.x0..=b.x1 {
                     let Some(b) = tri.barycentric([xi as f32 + 0.5, yi as f32 + 0.5]) else {
                         continue;
                     };
@@ -445,31 +450,7 @@ impl ShadowMap {
         for yi in 0..n {
             for xi in 0..n {
                 let (u, v) = ((xi as f32 + 0.5) / n as f32, (yi as f32 + 0.5) / n as f32);
-                let (o, d) = match self.proj {
-                    LightProjection::Ortho {
-                        origin,
-                        right,
-                        up,
-                        forward,
-                        half,
-                    } => (
-                        origin + right * ((2.0 * u - 1.0) * half) + up * ((1.0 - 2.0 * v) * half),
-                        forward,
-                    ),
-                    LightProjection::Persp {
-                        eye,
-                        right,
-                        up,
-                        forward,
-                        tan_half,
-                    } => (
-                        eye,
-                        (forward
-                            + right * ((2.0 * u - 1.0) * tan_half)
-                            + up * ((1.0 - 2.0 * v) * tan_half))
-                            .normalize(),
-                    ),
-                };
+                let (o, d) = self.proj.ray(u, v);
                 let mut best = f32::INFINITY;
                 for s in &scene.spheres {
                     if let Some(t) = ray_sphere(o, d, s.center, s.radius) {
@@ -607,9 +588,8 @@ impl ShadowMap {
     pub fn build_cached(
         light: &Light,
         scene: &Scene,
-        segments: &[(Vec3, Vec3, f32, f32)],
-        center: Vec3,
-        radius: f32,
+        segments: &[WorldSegment],
+        bounds: Bounds,
         opts: &RenderOptions,
         geometry: u64,
     ) -> (Option<std::sync::Arc<ShadowMap>>, bool) {
@@ -628,8 +608,8 @@ impl ShadowMap {
         h.word(geometry);
         h.word(matches!(light, Light::Point { .. }) as u64);
         h.floats(pos_or_dir.to_array());
-        h.floats(center.to_array());
-        h.floats([radius, opts.shadow_density]);
+        h.floats(bounds.center.to_array());
+        h.floats([bounds.radius, opts.shadow_density]);
         h.word(opts.shadow_map_size as u64);
         h.word(opts.pcf_radius as u64);
         h.word(opts.shadow_model as u64);
@@ -643,7 +623,7 @@ impl ShadowMap {
                 return (Some(map), true);
             }
         }
-        let Some(m) = Self::build(light, scene, segments, center, radius, opts) else {
+        let Some(m) = Self::build(light, scene, segments, bounds, opts) else {
             return (None, false);
         };
         let m = std::sync::Arc::new(m);

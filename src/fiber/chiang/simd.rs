@@ -220,9 +220,10 @@ unsafe fn run_avx2(k: &Consts, wi: &[f32], wo: &[f32], base: usize, out: &mut [f
 }
 
 /// `eval` of pairs `first..first + out.len()/3` of the flat `(N, 3)` (or
-/// broadcast) arrays `wi`, `wo` at `level`; degenerate pairs give 0, as do
-/// non-finite results.
-pub(crate) fn eval_range(
+/// broadcast) arrays `wi`, `wo` at `level` (at most [`Level::detect`]'s),
+/// on this thread; degenerate pairs give 0, as do non-finite results. The
+/// model's I0 mode is taken as exact.
+pub fn eval_range(
     m: &ChiangHair<f32>,
     wi: &[f32],
     wo: &[f32],
@@ -245,9 +246,15 @@ pub(crate) fn eval_range(
 
 #[cfg(test)]
 mod tests {
-    use crate::batch::chiang_eval_simd;
     use crate::fiber::chiang::{ChiangHair, ChiangParams};
     use crate::simd::testing::{directions, levels, unit64};
+    use crate::simd::Level;
+
+    /// The kernel over the whole batch on this thread, at `level` or the
+    /// best this CPU has below it.
+    fn eval_all(m: &ChiangHair<f32>, wi: &[f32], wo: &[f32], out: &mut [f32], level: Level) {
+        super::eval_range(m, wi, wo, 0, out, level.min_with(Level::detect()))
+    }
 
     /// 1. The vector kernel at every level this CPU has, against the scalar
     ///    kernel in f64, over roughness 1e-3..1, tilt ±10°, η from 1.01 to
@@ -305,7 +312,7 @@ mod tests {
                 .collect();
             for &level in &levels() {
                 let mut out = vec![0.0f32; 3 * n];
-                chiang_eval_simd(&m32, &wi, &wo, &mut out, level);
+                eval_all(&m32, &wi, &wo, &mut out, level);
                 for i in 0..n {
                     for c in 0..3 {
                         let (g, w) = (out[3 * i + c] as f64, want[i][c]);
@@ -381,7 +388,7 @@ mod tests {
         let n = wi.len() / 3;
         for level in levels() {
             let mut out = vec![-1.0f32; 3 * n];
-            chiang_eval_simd(&m32, &wi, &wo, &mut out, level);
+            eval_all(&m32, &wi, &wo, &mut out, level);
             assert!(
                 out[..9].iter().all(|&x| x == 0.0),
                 "{level:?} {:?}",

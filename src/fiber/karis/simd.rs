@@ -15,8 +15,7 @@
 //!
 //! Models with `fast_asin` (UE's `asinFast`) use the scalar path.
 
-use super::{Absorption, KarisHair};
-use crate::batch::KarisInputs;
+use super::{Absorption, KarisHair, KarisInputs, LobeVisitor};
 use crate::simd::{dot, load, load_dir, store, Lanes, Level, F};
 #[cfg(target_arch = "x86_64")]
 use crate::simd::{F16, F8};
@@ -109,6 +108,17 @@ fn schlick<V: Lanes>(k: &Consts, x: V) -> V {
         .mul_add(V::splat(1.0 - k.f0), V::splat(k.f0))
 }
 
+/// Lobe `p`, channel `c` of the output: stored (`LOBES`) or added to the
+/// running sum in `out[0]`.
+#[inline(always)]
+fn put<V: Lanes, const LOBES: bool>(out: &mut [[V; 3]; 4], p: usize, c: usize, x: V) {
+    if LOBES {
+        out[p][c] = x;
+    } else {
+        out[0][c] = out[0][c] + x;
+    }
+}
+
 /// R, TT, TRT, MS of `V::N` pairs (each RGB; with `LOBES = false` only
 /// `[0]` is written: the running sum of the enabled lobes), and the lanes
 /// that are valid.
@@ -132,13 +142,6 @@ fn lobes<
     let (t, ok_t) = load_dir::<V>(inp.t, base, count);
     let mut ok = ok_l & ok_v & ok_t;
     let mut out = [[zero; 3]; 4];
-    let mut put = |p: usize, c: usize, x: V| {
-        if LOBES {
-            out[p][c] = x;
-        } else {
-            out[0][c] = out[0][c] + x;
-        }
-    };
 
     // Geometry shared by the lobes.
     let vol = dot(&v, &l);
@@ -200,7 +203,7 @@ fn lobes<
         let back = saturate(-vol) * (k.backlit - 1.0) + 1.0;
         let r = m_p * n_p * f_p * back * k.specular2;
         for c in 0..3 {
-            put(0, c, r);
+            put::<V, LOBES>(&mut out, 0, c, r);
         }
     }
     if TT {
@@ -239,7 +242,7 @@ fn lobes<
             } else {
                 len.mul_add(V::splat(coef[c]), g).exp_bounded()
             };
-            put(1, c, kk * t_p);
+            put::<V, LOBES>(&mut out, 1, c, kk * t_p);
         }
     }
     if TRT {
@@ -255,7 +258,7 @@ fn lobes<
             } else {
                 e.mul_add(V::splat(k.color_ln[c]), g).exp_bounded()
             };
-            put(2, c, kk * t_p);
+            put::<V, LOBES>(&mut out, 2, c, kk * t_p);
         }
     }
     if MS {
@@ -392,50 +395,60 @@ fn run_level<const R: bool, const TT: bool, const TRT: bool, const MS: bool, con
     }
 }
 
-/// Batched `f32` evaluation on the vector kernel: the contract of
-/// [`crate::batch::karis_eval`] (which calls this for `f32` models without
-/// `fast_asin`). `first` is the index of `out`'s first pair.
-pub(crate) fn eval_range<const LOBES: bool>(
+/// Batched `f32` evaluation on the vector kernel, on this thread: pairs
+/// `first..` of `inp` into `out` (3 values per pair, the clamped sum; 12
+/// with `LOBES`, the four lobes); degenerate pairs give 0. `level` must be
+/// at most [`Level::detect`]'s. Models with `fast_asin` are evaluated as
+/// if it were off.
+pub fn eval_range<const LOBES: bool>(
     m: &KarisHair<f32>,
     inp: &KarisInputs<'_, f32>,
     first: usize,
     out: &mut [f32],
     level: Level,
 ) {
-    let k = Consts::new(m);
-    let c = m.components;
-    macro_rules! go {
-        ($r:literal, $tt:literal, $trt:literal, $ms:literal) => {
-            run_level::<$r, $tt, $trt, $ms, LOBES>(level, &k, inp, first, out)
-        };
+    struct Run<'a, 'b, const LOBES: bool> {
+        level: Level,
+        k: Consts,
+        inp: &'a KarisInputs<'b, f32>,
+        first: usize,
+        out: &'a mut [f32],
     }
-    match (c.r, c.tt, c.trt, c.ms) {
-        (true, true, true, true) => go!(true, true, true, true),
-        (true, true, true, false) => go!(true, true, true, false),
-        (true, true, false, true) => go!(true, true, false, true),
-        (true, true, false, false) => go!(true, true, false, false),
-        (true, false, true, true) => go!(true, false, true, true),
-        (true, false, true, false) => go!(true, false, true, false),
-        (true, false, false, true) => go!(true, false, false, true),
-        (true, false, false, false) => go!(true, false, false, false),
-        (false, true, true, true) => go!(false, true, true, true),
-        (false, true, true, false) => go!(false, true, true, false),
-        (false, true, false, true) => go!(false, true, false, true),
-        (false, true, false, false) => go!(false, true, false, false),
-        (false, false, true, true) => go!(false, false, true, true),
-        (false, false, true, false) => go!(false, false, true, false),
-        (false, false, false, true) => go!(false, false, false, true),
-        (false, false, false, false) => go!(false, false, false, false),
+    impl<const LOBES: bool> LobeVisitor<f32> for Run<'_, '_, LOBES> {
+        type Out = ();
+        fn visit<const R: bool, const TT: bool, const TRT: bool, const MS: bool>(
+            self,
+            _: &KarisHair<f32>,
+        ) {
+            run_level::<R, TT, TRT, MS, LOBES>(self.level, &self.k, self.inp, self.first, self.out)
+        }
     }
+    m.dispatch(Run::<LOBES> {
+        level,
+        k: Consts::new(m),
+        inp,
+        first,
+        out,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::{Absorption, Components, KarisParams};
-    use crate::batch::{karis_eval_simd, KarisInputs};
-    use crate::fiber::karis::{KarisHair, Transmittance};
+    use crate::fiber::karis::{KarisHair, KarisInputs, Transmittance};
     use crate::simd::testing::{directions, levels, unit64};
     use crate::simd::Level;
+
+    /// The kernel over the whole batch on this thread, at `level` or the
+    /// best this CPU has below it.
+    fn eval_all<const LOBES: bool>(
+        m: &KarisHair<f32>,
+        inp: &KarisInputs<'_, f32>,
+        out: &mut [f32],
+        level: Level,
+    ) {
+        super::eval_range::<LOBES>(m, inp, 0, out, level.min_with(Level::detect()))
+    }
 
     /// 1. The vector kernel at every level this CPU has, against the scalar
     ///    kernel in f64, for every absorption, component set, separable R
@@ -545,7 +558,7 @@ mod tests {
                 .collect();
             for &level in &levels {
                 let mut out = vec![0.0f32; 3 * n];
-                karis_eval_simd::<false>(&m32, &inp, &mut out, level);
+                eval_all::<false>(&m32, &inp, &mut out, level);
                 for i in 0..n {
                     for c in 0..3 {
                         let (g, w) = (out[3 * i + c] as f64, want[i][c]);
@@ -594,8 +607,8 @@ mod tests {
         for level in [Level::Portable, Level::Avx2, Level::Avx512] {
             let mut sum = vec![0.0f32; 3 * 40];
             let mut lobes = vec![0.0f32; 12 * 40];
-            karis_eval_simd::<false>(&m, &inp, &mut sum, level);
-            karis_eval_simd::<true>(&m, &inp, &mut lobes, level);
+            eval_all::<false>(&m, &inp, &mut sum, level);
+            eval_all::<true>(&m, &inp, &mut lobes, level);
             assert!(
                 sum[..9].iter().all(|&x| x == 0.0),
                 "{level:?} {:?}",

@@ -1,0 +1,77 @@
+//! Images in and out: EXR and PNG files as flat float32 arrays.
+
+use super::convert::{slice, to_numpy, without_gil};
+use numpy::PyReadonlyArray1;
+use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// An RGB image as (width, height, flat float32 array of H·W·3 values).
+#[derive(FromPyObject)]
+pub struct RgbImage<'py>(usize, usize, PyReadonlyArray1<'py, f32>);
+
+impl RgbImage<'_> {
+    /// `(width, height, values)`, or a `ValueError` when the sizes disagree.
+    fn checked(&self) -> PyResult<(usize, usize, &[f32])> {
+        let (width, height) = (self.0, self.1);
+        let d = slice(&self.2, "image")?;
+        if Some(d.len()) != width.checked_mul(height).and_then(|n| n.checked_mul(3)) {
+            return Err(PyValueError::new_err(format!(
+                "image: expected {height}x{width}x3 values, got {}",
+                d.len()
+            )));
+        }
+        Ok((width, height, d))
+    }
+}
+
+fn os_error(e: crate::image_io::ImageError) -> PyErr {
+    PyOSError::new_err(e.0)
+}
+
+/// Writes a float RGB EXR.
+#[pyfunction]
+pub fn write_exr(py: Python<'_>, path: PathBuf, image: RgbImage<'_>) -> PyResult<()> {
+    let (w, h, d) = image.checked()?;
+    without_gil(py, || crate::image_io::write_exr(&path, w, h, d)).map_err(os_error)
+}
+
+/// `(width, height, flat float32 array)` from an image reader, run with
+/// the GIL released.
+type Reader = fn(&std::path::Path) -> Result<(usize, usize, Vec<f32>), crate::image_io::ImageError>;
+
+/// `(width, height, flat float32 array)`.
+type Image<'py> = PyResult<(usize, usize, Bound<'py, PyAny>)>;
+
+fn read_with(
+    py: Python<'_>,
+    path: PathBuf,
+    read: Reader,
+) -> PyResult<(usize, usize, Bound<'_, PyAny>)> {
+    let (w, h, d) = without_gil(py, || read(&path)).map_err(os_error)?;
+    Ok((w, h, to_numpy(py, d)))
+}
+
+/// Reads an EXR's RGB channels: (width, height, flat float32 array).
+#[pyfunction]
+pub fn read_exr(py: Python<'_>, path: PathBuf) -> Image<'_> {
+    read_with(py, path, crate::image_io::read_exr)
+}
+
+/// Reads a PNG: (width, height, flat RGBA float32 array in [0, 1]).
+#[pyfunction]
+pub fn read_png(py: Python<'_>, path: PathBuf) -> Image<'_> {
+    read_with(py, path, crate::image_io::read_png)
+}
+
+/// Writes an sRGB PNG preview of a linear image scaled by 2^exposure.
+#[pyfunction]
+pub fn write_png(
+    py: Python<'_>,
+    path: PathBuf,
+    image: RgbImage<'_>,
+    exposure: f32,
+) -> PyResult<()> {
+    let (w, h, d) = image.checked()?;
+    without_gil(py, || crate::image_io::write_png(&path, w, h, d, exposure)).map_err(os_error)
+}

@@ -1,0 +1,379 @@
+//! The fiber models as Python classes: each is built in both precisions
+//! once, and every operation takes flat arrays of either (see
+//! [`with_floats!`]). Shapes, broadcasting and the public docs live in
+//! `python/hairshade/{chiang,karis,deon}.py`.
+
+use super::convert::{
+    by_name, compute, entries, pairs, to_numpy, value_error, with_floats, without_gil, Floats,
+};
+use crate::batch::{
+    chiang_eval, deon_eval, dir_at, karis_eval, karis_eval_env, map_pairs_rgb, map_pairs_scalar,
+    par_map, sample_batch, SampleOut,
+};
+use crate::fiber::chiang::{azimuthal_scale, longitudinal_variance};
+use crate::fiber::deon::{DEonHair, DEonParams};
+use crate::fiber::karis::{Absorption, Components, KarisHair, KarisInputs, KarisParams};
+use crate::fiber::{ChiangHair, ChiangParams, I0Mode};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// The component flags named in `names` ("R", "TT", "TRT", "MS").
+fn components(names: &[String]) -> PyResult<Components> {
+    let mut c = Components {
+        r: false,
+        tt: false,
+        trt: false,
+        ms: false,
+    };
+    for n in names {
+        match n.as_str() {
+            "R" => c.r = true,
+            "TT" => c.tt = true,
+            "TRT" => c.trt = true,
+            "MS" => c.ms = true,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "components: unknown component {other:?}; allowed: 'R', 'TT', 'TRT', 'MS'"
+                )))
+            }
+        }
+    }
+    Ok(c)
+}
+
+type Out<'py> = PyResult<Bound<'py, PyAny>>;
+
+/// World-space light, view and tangent directions (a tuple of three flat
+/// arrays) for KarisHair and DEonHair.
+#[derive(FromPyObject)]
+pub struct Directions<'py>(Floats<'py>, Floats<'py>, Floats<'py>);
+
+/// The ChiangHair operations on pairs of directions.
+#[derive(Clone, Copy)]
+enum ChiangOp {
+    Eval,
+    EvalFar,
+    EvalFarLobes,
+    Pdf,
+}
+
+impl PyChiangHair {
+    /// `op` for every pair of `wi`, `wo` (0 for a pair with a degenerate
+    /// direction), in parallel with the GIL released.
+    fn per_pair<'py>(
+        &self,
+        py: Python<'py>,
+        wi: Floats<'py>,
+        wo: Floats<'py>,
+        op: ChiangOp,
+    ) -> Out<'py> {
+        with_floats!(self.m, (wi, wo) => {
+            let n = pairs(wi, wo)?;
+            Ok(match op {
+                ChiangOp::Eval => compute(py, 3 * n, |o| chiang_eval(m, wi, wo, o)),
+                ChiangOp::EvalFar => compute(py, 3 * n, |o| map_pairs_rgb(wi, wo, o, |a, b| m.eval_far(a, b))),
+                ChiangOp::EvalFarLobes => compute(py, 12 * n, |o| {
+                    par_map(o, |i| match (dir_at(wi, i), dir_at(wo, i)) {
+                        (Some(a), Some(b)) => {
+                            let l = m.eval_far_lobes(&a, &b);
+                            std::array::from_fn::<_, 12, _>(|k| l[k / 3][k % 3])
+                        }
+                        _ => [0.0; 12],
+                    })
+                }),
+                ChiangOp::Pdf => compute(py, n, |o| map_pairs_scalar(wi, wo, o, |a, b| m.pdf(a, b))),
+            })
+        })
+    }
+}
+
+/// Chiang 2016 hair BSDF (flat-array interface; see `hairshade.ChiangHair`).
+#[pyclass(frozen, module = "hairshade._native", name = "ChiangHair")]
+pub struct PyChiangHair {
+    m32: ChiangHair<f32>,
+    m64: ChiangHair<f64>,
+    sigma_a: [f64; 3],
+}
+
+#[pymethods]
+impl PyChiangHair {
+    #[new]
+    #[pyo3(signature = (sigma_a, eumelanin, pheomelanin, longitudinal_roughness, azimuthal_roughness, scale_tilt, eta, i0))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        sigma_a: Option<[f64; 3]>,
+        eumelanin: Option<f64>,
+        pheomelanin: Option<f64>,
+        longitudinal_roughness: f64,
+        azimuthal_roughness: f64,
+        scale_tilt: f64,
+        eta: f64,
+        i0: &str,
+    ) -> PyResult<Self> {
+        let i0 = by_name(
+            "i0",
+            i0,
+            &[("exact", I0Mode::Exact), ("mitsuba", I0Mode::Mitsuba)],
+        )?;
+        let p = ChiangParams {
+            sigma_a,
+            eumelanin,
+            pheomelanin,
+            longitudinal_roughness,
+            azimuthal_roughness,
+            scale_tilt,
+            eta,
+            i0,
+        };
+        Ok(Self {
+            m32: p.build().map_err(value_error)?,
+            m64: p.build().map_err(value_error)?,
+            sigma_a: p.absorption(),
+        })
+    }
+
+    /// BSDF value, cosine included: 3 values per pair.
+    fn eval<'py>(&self, py: Python<'py>, wi: Floats<'py>, wo: Floats<'py>) -> Out<'py> {
+        self.per_pair(py, wi, wo, ChiangOp::Eval)
+    }
+
+    /// Far field (average over h): 3 values per pair.
+    fn eval_far<'py>(&self, py: Python<'py>, wi: Floats<'py>, wo: Floats<'py>) -> Out<'py> {
+        self.per_pair(py, wi, wo, ChiangOp::EvalFar)
+    }
+
+    /// Far field per lobe (R, TT, TRT, residual): 12 values per pair.
+    fn eval_far_lobes<'py>(&self, py: Python<'py>, wi: Floats<'py>, wo: Floats<'py>) -> Out<'py> {
+        self.per_pair(py, wi, wo, ChiangOp::EvalFarLobes)
+    }
+
+    /// Solid-angle density of `sample`: one value per pair.
+    fn pdf<'py>(&self, py: Python<'py>, wi: Floats<'py>, wo: Floats<'py>) -> Out<'py> {
+        self.per_pair(py, wi, wo, ChiangOp::Pdf)
+    }
+
+    /// Importance sampling: (wo, weight, pdf), flat.
+    fn sample<'py>(
+        &self,
+        py: Python<'py>,
+        wi: Floats<'py>,
+        u1: Floats<'py>,
+        u2: Floats<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        with_floats!(self.m, (wi, u1, u2) => {
+            let n = u1.len();
+            if n == 0 || u2.len() != 2 * n || !(wi.len() == 3 || wi.len() == 3 * n) {
+                return Err(PyValueError::new_err(format!(
+                    "wi, u1, u2: shapes ({}, 3), ({},), ({}, 2) do not match",
+                    wi.len() / 3,
+                    n,
+                    u2.len() / 2
+                )));
+            }
+            let (wo, weight, pdf) = without_gil(py, || {
+                let (mut wo, mut weight, mut pdf) = (vec![0.0; 3 * n], vec![0.0; 3 * n], vec![0.0; n]);
+                let out = SampleOut { wo: &mut wo, weight: &mut weight, pdf: &mut pdf };
+                sample_batch(wi, u1, u2, out, |a, x, y| m.sample(a, x, y));
+                (wo, weight, pdf)
+            });
+            Ok((to_numpy(py, wo), to_numpy(py, weight), to_numpy(py, pdf)))
+        })
+    }
+
+    /// Longitudinal variances v_p (R, TT, TRT, residual).
+    #[getter]
+    fn variances(&self) -> [f64; 4] {
+        self.m64.variances()
+    }
+    /// Logistic scale s of the azimuthal term.
+    #[getter]
+    fn logistic_scale(&self) -> f64 {
+        self.m64.logistic_scale()
+    }
+    /// Number of γ nodes used by `eval_far`.
+    #[getter]
+    fn far_field_order(&self) -> usize {
+        self.m64.far_field_order()
+    }
+    /// The absorption coefficient in use (RGB), from sigma_a or melanin.
+    #[getter]
+    fn sigma_a(&self) -> [f64; 3] {
+        self.sigma_a
+    }
+}
+
+/// Chiang eq. 7: the R lobe's longitudinal variance for roughness β_m.
+#[pyfunction]
+pub fn chiang_longitudinal_variance(beta_m: f64) -> f64 {
+    longitudinal_variance(beta_m)
+}
+
+/// Chiang eq. 8: the logistic scale s for azimuthal roughness β_n.
+#[pyfunction]
+pub fn chiang_azimuthal_scale(beta_n: f64) -> f64 {
+    azimuthal_scale(beta_n)
+}
+
+/// Karis 2016 / UE4 hair shading (flat-array interface; see `hairshade.KarisHair`).
+#[pyclass(frozen, module = "hairshade._native", name = "KarisHair")]
+pub struct PyKarisHair {
+    pub(super) m32: KarisHair<f32>,
+    m64: KarisHair<f64>,
+}
+
+#[pymethods]
+impl PyKarisHair {
+    #[new]
+    #[pyo3(signature = (base_color, specular, roughness, scatter, shift, backlit, area, components, separable_r, absorption, fast_asin))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        base_color: [f64; 3],
+        specular: f64,
+        roughness: f64,
+        scatter: f64,
+        shift: f64,
+        backlit: f64,
+        area: f64,
+        components: Vec<String>,
+        separable_r: bool,
+        absorption: &str,
+        fast_asin: bool,
+    ) -> PyResult<Self> {
+        let absorption = by_name(
+            "absorption",
+            absorption,
+            &[
+                ("legacy", Absorption::Legacy),
+                ("chiang", Absorption::Chiang),
+                ("chiang_corrected", Absorption::ChiangCorrected),
+            ],
+        )?;
+        let p = KarisParams {
+            base_color,
+            specular,
+            roughness,
+            scatter,
+            shift,
+            backlit,
+            area,
+            components: self::components(&components)?,
+            separable_r,
+            absorption,
+            fast_asin,
+        };
+        Ok(Self {
+            m32: p.build().map_err(value_error)?,
+            m64: p.build().map_err(value_error)?,
+        })
+    }
+
+    /// `S(L, V, T)` (3 values per pair), or with `lobes` R, TT, TRT, MS (12
+    /// per pair). Every array holds one value (or triple) per pair or a
+    /// single one that broadcasts.
+    #[pyo3(signature = (lvt, shadow, global_scattering, local_scattering, opaque_visibility, lobes=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn eval<'py>(
+        &self,
+        py: Python<'py>,
+        lvt: Directions<'py>,
+        shadow: Floats<'py>,
+        global_scattering: Floats<'py>,
+        local_scattering: Floats<'py>,
+        opaque_visibility: Floats<'py>,
+        lobes: bool,
+    ) -> Out<'py> {
+        let Directions(l, v, t) = lvt;
+        with_floats!(self.m, (l, v, t, shadow, global_scattering, local_scattering, opaque_visibility) => {
+            let n = entries(&[
+                (l, 3, "L"),
+                (v, 3, "V"),
+                (t, 3, "T"),
+                (shadow, 1, "shadow"),
+                (global_scattering, 3, "global_scattering"),
+                (local_scattering, 3, "local_scattering"),
+                (opaque_visibility, 1, "opaque_visibility"),
+            ])?;
+            let inp = KarisInputs { l, v, t, shadow, global_scattering, local_scattering, opaque_visibility };
+            Ok(if lobes {
+                compute(py, 12 * n, |o| karis_eval::<_, true>(m, &inp, o))
+            } else {
+                compute(py, 3 * n, |o| karis_eval::<_, false>(m, &inp, o))
+            })
+        })
+    }
+
+    /// Environment lighting of the SH environment `sh` (27 values): 3
+    /// values per (V, T) pair.
+    fn eval_env<'py>(
+        &self,
+        py: Python<'py>,
+        v: Floats<'py>,
+        t: Floats<'py>,
+        sh: Floats<'py>,
+    ) -> Out<'py> {
+        with_floats!(self.m, (v, t, sh) => {
+            let n = entries(&[(v, 3, "V"), (t, 3, "T")])?;
+            if sh.len() != 27 {
+                return Err(PyValueError::new_err(format!(
+                    "sh: expected 9 RGB coefficients (27 values), got {}",
+                    sh.len()
+                )));
+            }
+            let coeffs = std::array::from_fn(|k| [sh[3 * k], sh[3 * k + 1], sh[3 * k + 2]]);
+            Ok(compute(py, 3 * n, |o| karis_eval_env(m, v, t, &coeffs, o)))
+        })
+    }
+}
+
+/// UE4 HairShadingRef (flat-array interface; see `hairshade.DEonHair`).
+#[pyclass(frozen, module = "hairshade._native", name = "DEonHair")]
+pub struct PyDEonHair {
+    pub(super) m32: DEonHair<f32>,
+    m64: DEonHair<f64>,
+}
+
+#[pymethods]
+impl PyDEonHair {
+    #[new]
+    #[pyo3(signature = (base_color, roughness, shift, eta, h_samples, h_offset, components))]
+    fn new(
+        base_color: [f64; 3],
+        roughness: f64,
+        shift: f64,
+        eta: f64,
+        h_samples: Option<u32>,
+        h_offset: f64,
+        components: Vec<String>,
+    ) -> PyResult<Self> {
+        let p = DEonParams {
+            base_color,
+            roughness,
+            shift,
+            eta,
+            h_samples,
+            h_offset,
+            components: self::components(&components)?,
+        };
+        Ok(Self {
+            m32: p.build().map_err(value_error)?,
+            m64: p.build().map_err(value_error)?,
+        })
+    }
+
+    /// `S(L, V, T)` (3 values per pair), or with `lobes` R, TT, TRT (9).
+    #[pyo3(signature = (lvt, lobes=false))]
+    fn eval<'py>(&self, py: Python<'py>, lvt: Directions<'py>, lobes: bool) -> Out<'py> {
+        let Directions(l, v, t) = lvt;
+        with_floats!(self.m, (l, v, t) => {
+            let n = entries(&[(l, 3, "L"), (v, 3, "V"), (t, 3, "T")])?;
+            let w = if lobes { 9 } else { 3 };
+            Ok(compute(py, w * n, |o| deon_eval(m, l, v, t, lobes, o)))
+        })
+    }
+}
+
+impl PyChiangHair {
+    pub(super) fn m32(&self) -> &ChiangHair<f32> {
+        &self.m32
+    }
+}

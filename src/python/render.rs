@@ -1,0 +1,546 @@
+//! The rasterizer from Python: the scene arrives as one dict of flat arrays
+//! (built by `python/hairshade/render.py`), the settings as one dict of
+//! render options, read and range-checked here ([`read_options`]: the only
+//! place the ranges are checked; scene files are checked through
+//! [`render_options`] when they load).
+
+use super::convert::{slice, to_numpy, without_gil};
+use super::models::{PyChiangHair, PyDEonHair, PyKarisHair};
+use crate::raster::scene::{
+    AlphaTexture, Camera, Cards, Environment, HairShading, Light, OpaqueTri, RenderOptions, Scene,
+    Sphere, Strands, Transparency,
+};
+use crate::raster::shadow::ShadowModel;
+use glam::Vec3;
+use numpy::PyReadonlyArray1;
+use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+fn err(key: &str, msg: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(format!("{key}: {msg}"))
+}
+
+/// Reads settings from a dict, each by name with a default, and checks
+/// that no unknown key is left.
+struct OptionReader<'a, 'py> {
+    d: &'a Bound<'py, PyDict>,
+    known: Vec<&'static str>,
+}
+
+impl<'py> OptionReader<'_, 'py> {
+    fn get(&mut self, key: &'static str) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.known.push(key);
+        self.d.get_item(key)
+    }
+
+    /// A real number (not a bool, not a string), finite also as the f32
+    /// the renderer uses, in `[lo, hi]`.
+    fn num(&mut self, key: &'static str, default: f64, lo: f64, hi: f64) -> PyResult<f64> {
+        let Some(v) = self.get(key)? else {
+            return Ok(default);
+        };
+        let x =
+            number(&v).ok_or_else(|| err(key, format!("expected a number, got {}", repr(&v))))?;
+        if !(x.is_finite() && (x as f32).is_finite()) {
+            return Err(err(key, format!("must be finite (as a float32), got {x}")));
+        }
+        if !(lo..=hi).contains(&x) {
+            return Err(err(key, format!("must be in [{lo}, {hi}], got {x}")));
+        }
+        Ok(x)
+    }
+
+    /// An integer in `[lo, hi]` (a float with an integral value is accepted).
+    fn int(&mut self, key: &'static str, default: i64, lo: i64, hi: i64) -> PyResult<i64> {
+        let x = self.num(key, default as f64, lo as f64, hi as f64)?;
+        if x.fract() != 0.0 {
+            return Err(err(
+                key,
+                format!("must be an integer in [{lo}, {hi}], got {x}"),
+            ));
+        }
+        Ok(x as i64)
+    }
+
+    fn flag(&mut self, key: &'static str, default: bool) -> PyResult<bool> {
+        match self.get(key)? {
+            None => Ok(default),
+            Some(v) if v.is_instance_of::<PyBool>() => v.extract(),
+            Some(v) => Err(err(
+                key,
+                format!("expected true or false, got {}", repr(&v)),
+            )),
+        }
+    }
+
+    fn choice(
+        &mut self,
+        key: &'static str,
+        default: &'static str,
+        allowed: &[&'static str],
+    ) -> PyResult<&'static str> {
+        let Some(v) = self.get(key)? else {
+            return Ok(default);
+        };
+        let s: Option<String> = v
+            .is_instance_of::<PyString>()
+            .then(|| v.extract())
+            .transpose()?;
+        match s.and_then(|s| allowed.iter().find(|a| **a == s)) {
+            Some(a) => Ok(a),
+            None => Err(err(
+                key,
+                format!(
+                    "expected {}, got {}",
+                    allowed
+                        .iter()
+                        .map(|a| format!("'{a}'"))
+                        .collect::<Vec<_>>()
+                        .join(" or "),
+                    repr(&v)
+                ),
+            )),
+        }
+    }
+
+    /// Three numbers, each finite (as f32) and >= 0.
+    fn rgb(&mut self, key: &'static str, default: [f32; 3]) -> PyResult<[f32; 3]> {
+        let Some(v) = self.get(key)? else {
+            return Ok(default);
+        };
+        let items: Option<Vec<f64>> = v
+            .try_iter()
+            .ok()
+            .and_then(|it| it.map(|x| x.ok().and_then(|x| number(&x))).collect());
+        match items {
+            Some(c) if c.len() == 3 && c.iter().all(|x| (*x as f32).is_finite() && *x >= 0.0) => {
+                Ok([c[0] as f32, c[1] as f32, c[2] as f32])
+            }
+            _ => Err(err(
+                key,
+                format!("expected 3 finite numbers >= 0, got {}", repr(&v)),
+            )),
+        }
+    }
+
+    /// A `ValueError` naming the first key that was not read.
+    fn finish(self) -> PyResult<()> {
+        for k in self.d.keys() {
+            let name: String = k.str()?.extract()?;
+            if !self.known.contains(&name.as_str()) {
+                let mut known = self.known.clone();
+                known.sort();
+                return Err(err(
+                    &name,
+                    format!("unknown render option (allowed: {})", known.join(", ")),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A Python int or float as f64 (None for bools, strings and the rest).
+fn number(v: &Bound<'_, PyAny>) -> Option<f64> {
+    if v.is_instance_of::<PyBool>() {
+        return None;
+    }
+    if v.is_instance_of::<PyInt>() || v.is_instance_of::<PyFloat>() {
+        return v.extract::<f64>().ok();
+    }
+    None
+}
+
+fn repr(v: &Bound<'_, PyAny>) -> String {
+    v.repr()
+        .map(|r| r.to_string())
+        .unwrap_or_else(|_| "?".into())
+}
+
+/// The render options a dict describes (defaults for missing keys), every
+/// value checked against its type and range, and the MLAB layer count
+/// (kept also when the transparency is `sorted`).
+fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
+    let def = RenderOptions::default();
+    let mut r = OptionReader {
+        d,
+        known: Vec::new(),
+    };
+    let (l0, l1) = RenderOptions::LAYERS;
+    let (s0, s1) = RenderOptions::SHADOW_MAP_SIZE;
+    let (p0, p1) = RenderOptions::PCF_RADIUS;
+    let transparency = r.choice("transparency", "mlab", &["mlab", "sorted"])?;
+    let layers = r.int("layers", 4, l0 as i64, l1 as i64)? as usize;
+    let opts = RenderOptions {
+        transparency: match transparency {
+            "sorted" => Transparency::Sorted,
+            _ => Transparency::Mlab(layers),
+        },
+        shadow_map_size: r.int(
+            "shadow_map_size",
+            def.shadow_map_size as i64,
+            s0 as i64,
+            s1 as i64,
+        )? as u32,
+        shadow_model: match r.choice("shadow_model", "exponential", &["exponential", "opacity"])? {
+            "opacity" => ShadowModel::Opacity,
+            _ => ShadowModel::Exponential,
+        },
+        shadow_density: r.num("shadow_density", def.shadow_density as f64, 0.0, f64::MAX)? as f32,
+        pcf_radius: r.int("pcf_radius", def.pcf_radius as i64, p0 as i64, p1 as i64)? as i32,
+        background: r.rgb("background", def.background.to_array())?.into(),
+        vertex_shading: r.choice("shading", "pixel", &["pixel", "vertex"])? == "vertex",
+        frustum_culling: r.flag("frustum_culling", def.frustum_culling)?,
+        backface_culling: r.flag("backface_culling", def.backface_culling)?,
+        opaque_culling: r.flag("opaque_culling", def.opaque_culling)?,
+        skip_unused: r.flag("skip_unused", def.skip_unused)?,
+        reuse_shadow_maps: r.flag("reuse_shadow_maps", def.reuse_shadow_maps)?,
+        light_cull_threshold: r.num(
+            "light_cull_threshold",
+            def.light_cull_threshold as f64,
+            0.0,
+            f64::MAX,
+        )? as f32,
+    };
+    r.finish()?;
+    Ok((opts, layers))
+}
+
+/// The render options as a dict with every key (the form
+/// [`read_options`] reads back).
+fn options_dict<'py>(
+    py: Python<'py>,
+    o: &RenderOptions,
+    layers: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let transparency = match o.transparency {
+        Transparency::Mlab(_) => "mlab",
+        Transparency::Sorted => "sorted",
+    };
+    d.set_item("transparency", transparency)?;
+    d.set_item("layers", layers)?;
+    d.set_item("shadow_map_size", o.shadow_map_size)?;
+    d.set_item(
+        "shadow_model",
+        match o.shadow_model {
+            ShadowModel::Opacity => "opacity",
+            ShadowModel::Exponential => "exponential",
+        },
+    )?;
+    d.set_item("shadow_density", o.shadow_density as f64)?;
+    d.set_item("pcf_radius", o.pcf_radius)?;
+    d.set_item("background", o.background.to_array().map(|x| x as f64))?;
+    d.set_item("shading", if o.vertex_shading { "vertex" } else { "pixel" })?;
+    d.set_item("frustum_culling", o.frustum_culling)?;
+    d.set_item("backface_culling", o.backface_culling)?;
+    d.set_item("opaque_culling", o.opaque_culling)?;
+    d.set_item("skip_unused", o.skip_unused)?;
+    d.set_item("reuse_shadow_maps", o.reuse_shadow_maps)?;
+    d.set_item("light_cull_threshold", o.light_cull_threshold as f64)?;
+    Ok(d)
+}
+
+/// Checks render options (a scene file's `render` section, or the
+/// settings of a render) and returns them complete, defaults filled in.
+/// Raises `ValueError` naming the option.
+#[pyfunction]
+pub fn render_options<'py>(options: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyDict>> {
+    let (o, layers) = read_options(options)?;
+    options_dict(options.py(), &o, layers)
+}
+
+type CameraArgs = ([f32; 3], [f32; 3], [f32; 3], f32, u32, u32);
+type LightArgs = (String, [f32; 3], [f32; 3], bool);
+type SphereArgs = ([f32; 3], f32, [f32; 3]);
+
+/// Cards as flat arrays: corners (Q·4·3), UVs (Q·4·2), tangents (Q·3), a
+/// texture index per quad, and the textures (width, height, alpha).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct CardArgs<'py> {
+    corners: PyReadonlyArray1<'py, f32>,
+    uvs: PyReadonlyArray1<'py, f32>,
+    tangents: PyReadonlyArray1<'py, f32>,
+    texture: PyReadonlyArray1<'py, u32>,
+    textures: Vec<(u32, u32, PyReadonlyArray1<'py, f32>)>,
+}
+
+/// Opaque triangles as a tuple of flat arrays: positions (T·9), albedos
+/// (T·3) and the mesh each belongs to.
+#[derive(FromPyObject)]
+pub struct TriangleArgs<'py>(
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, u32>,
+);
+
+/// The scene as `hairshade.render` passes it.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct SceneArgs<'py> {
+    camera: CameraArgs,
+    lights: Vec<LightArgs>,
+    environment: Option<Vec<f32>>,
+    points: PyReadonlyArray1<'py, f32>,
+    radii: PyReadonlyArray1<'py, f32>,
+    offsets: PyReadonlyArray1<'py, u32>,
+    spheres: Vec<SphereArgs>,
+    hair: Bound<'py, PyAny>,
+    cards: Option<CardArgs<'py>>,
+    triangles: Option<TriangleArgs<'py>>,
+}
+
+fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<Cards> {
+    let Some(a) = cards else {
+        return Ok(Cards::default());
+    };
+    let (c, u, t, ti) = (
+        slice(&a.corners, "cards")?,
+        slice(&a.uvs, "cards")?,
+        slice(&a.tangents, "cards")?,
+        slice(&a.texture, "cards")?,
+    );
+    let q = ti.len();
+    if c.len() != 12 * q || u.len() != 8 * q || t.len() != 3 * q {
+        return Err(err(
+            "cards",
+            format!("inconsistent array lengths for {q} quads"),
+        ));
+    }
+    let mut tex = Vec::with_capacity(a.textures.len());
+    for (k, (w, h, alpha)) in a.textures.iter().enumerate() {
+        let alpha = slice(alpha, "cards")?;
+        if *w == 0
+            || *h == 0
+            || alpha.len() != (*w as usize) * (*h as usize)
+            || alpha.iter().any(|x| !x.is_finite())
+        {
+            return Err(err(
+                "cards",
+                format!("texture {k} must hold {w}x{h} finite values"),
+            ));
+        }
+        tex.push(AlphaTexture {
+            width: *w,
+            height: *h,
+            alpha: alpha.to_vec(),
+        });
+    }
+    if ti.iter().any(|&i| i as usize >= tex.len()) {
+        return Err(err("cards", "texture index out of range"));
+    }
+    Ok(Cards {
+        corners: c.chunks_exact(3).map(Vec3::from_slice).collect(),
+        uvs: u.chunks_exact(2).map(|x| [x[0], x[1]]).collect(),
+        tangents: t.chunks_exact(3).map(Vec3::from_slice).collect(),
+        texture: ti.to_vec(),
+        textures: tex,
+    })
+}
+
+fn build_triangles(triangles: Option<TriangleArgs<'_>>) -> PyResult<Vec<OpaqueTri>> {
+    let Some(a) = triangles else {
+        return Ok(Vec::new());
+    };
+    let (p, al, m) = (
+        slice(&a.0, "triangles")?,
+        slice(&a.1, "triangles")?,
+        slice(&a.2, "triangles")?,
+    );
+    if p.len() != 3 * al.len() || al.len() % 3 != 0 || 3 * m.len() != al.len() {
+        return Err(err(
+            "triangles",
+            "expected 9 position, 3 albedo values and a mesh index per triangle",
+        ));
+    }
+    Ok((0..m.len())
+        .map(|t| OpaqueTri {
+            p: std::array::from_fn(|k| Vec3::from_slice(&p[9 * t + 3 * k..])),
+            albedo: Vec3::from_slice(&al[3 * t..]),
+            mesh: m[t],
+        })
+        .collect())
+}
+
+fn build_scene(a: SceneArgs<'_>) -> PyResult<Scene> {
+    let (pts, rad, off) = (
+        slice(&a.points, "points")?,
+        slice(&a.radii, "radii")?,
+        slice(&a.offsets, "offsets")?,
+    );
+    if pts.len() != 3 * rad.len() {
+        return Err(err(
+            "points, radii",
+            format!("{} points but {} radii", pts.len() / 3, rad.len()),
+        ));
+    }
+    if off.is_empty()
+        || off[0] != 0
+        || off.windows(2).any(|w| w[1] < w[0])
+        || *off.last().unwrap() as usize != rad.len()
+    {
+        return Err(err(
+            "offsets",
+            "must start at 0, not decrease, and end at the number of points",
+        ));
+    }
+    let cam = a.camera;
+    let max = RenderOptions::MAX_RESOLUTION;
+    if cam.4 == 0 || cam.5 == 0 || cam.4 > max || cam.5 > max {
+        return Err(err(
+            "resolution",
+            format!("must be in [1, {max}], got {}x{}", cam.4, cam.5),
+        ));
+    }
+    let hair = if let Ok(k) = a.hair.cast::<PyKarisHair>() {
+        HairShading::Karis(k.get().m32.clone())
+    } else if let Ok(c) = a.hair.cast::<PyChiangHair>() {
+        HairShading::ChiangFar(Box::new(c.get().m32().clone()))
+    } else if let Ok(d) = a.hair.cast::<PyDEonHair>() {
+        HairShading::DEon(Box::new(d.get().m32.clone()))
+    } else {
+        return Err(err(
+            "hair",
+            "expected a KarisHair, ChiangHair or DEonHair model",
+        ));
+    };
+    let mut lights = Vec::with_capacity(a.lights.len());
+    for (kind, v, i, shadows) in a.lights {
+        lights.push(match kind.as_str() {
+            "directional" => Light::Directional {
+                direction: Vec3::from(v).normalize_or(Vec3::Z),
+                intensity: Vec3::from(i),
+                shadows,
+            },
+            "point" => Light::Point {
+                position: Vec3::from(v),
+                intensity: Vec3::from(i),
+                shadows,
+            },
+            other => return Err(err("lights", format!("unknown light type {other:?}"))),
+        });
+    }
+    let environment = match a.environment {
+        None => None,
+        Some(c) if c.len() == 27 => Some(Environment {
+            sh: std::array::from_fn(|k| [c[3 * k], c[3 * k + 1], c[3 * k + 2]]),
+        }),
+        Some(c) => {
+            return Err(err(
+                "environment",
+                format!("expected 27 SH values, got {}", c.len()),
+            ))
+        }
+    };
+    Ok(Scene {
+        camera: Camera {
+            position: cam.0.into(),
+            target: cam.1.into(),
+            up: cam.2.into(),
+            fov_y: cam.3,
+            width: cam.4,
+            height: cam.5,
+        },
+        lights,
+        environment,
+        strands: Strands {
+            points: pts.chunks_exact(3).map(Vec3::from_slice).collect(),
+            radii: rad.to_vec(),
+            offsets: off.to_vec(),
+        },
+        cards: build_cards(a.cards)?,
+        triangles: build_triangles(a.triangles)?,
+        spheres: a
+            .spheres
+            .into_iter()
+            .map(|(c, r, al)| Sphere {
+                center: c.into(),
+                radius: r,
+                albedo: al.into(),
+            })
+            .collect(),
+        hair,
+    })
+}
+
+/// Renders a scene (see `hairshade.render`): `scene` is a dict of flat
+/// arrays, `options` the render options (see [`render_options`]). Returns
+/// (image as a flat float32 array, stats dict). `progress`, when given, is
+/// called with (tiles done, tiles total) about 20 times a second; Ctrl-C
+/// stops the render and raises KeyboardInterrupt.
+#[pyfunction]
+#[pyo3(signature = (scene, options, progress=None))]
+pub fn render<'py>(
+    py: Python<'py>,
+    scene: SceneArgs<'py>,
+    options: &Bound<'py, PyDict>,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+    let scene = build_scene(scene)?;
+    let (opts, _) = read_options(options)?;
+    let total = crate::raster::tile_count(&scene);
+    let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
+    let result = std::thread::scope(|s| -> PyResult<_> {
+        // The worker signals its end on a channel, so the wait returns as
+        // soon as the image is done (and every 50 ms for progress and Ctrl-C).
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let rx = std::sync::Mutex::new(rx);
+        let handle = s.spawn(|| {
+            let r = crate::raster::render_with_progress(&scene, &opts, &done, &cancel);
+            drop(tx);
+            r
+        });
+        let stop = |e: PyErr| {
+            cancel.store(true, Ordering::Relaxed);
+            Err(e)
+        };
+        loop {
+            let finished = without_gil(py, || {
+                let rx = rx.lock().unwrap_or_else(|e| e.into_inner());
+                matches!(
+                    rx.recv_timeout(std::time::Duration::from_millis(50)),
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) | Ok(())
+                )
+            });
+            if let Err(e) = py.check_signals() {
+                let r = stop(e);
+                let _ = handle.join();
+                return r;
+            }
+            if let Some(cb) = &progress {
+                if let Err(e) = cb.call1((done.load(Ordering::Relaxed), total)) {
+                    let r = stop(e);
+                    let _ = handle.join();
+                    return r;
+                }
+            }
+            if finished {
+                break;
+            }
+        }
+        handle
+            .join()
+            .map_err(|_| PyRuntimeError::new_err("render: the renderer panicked"))
+    })?;
+    let (image, stats) = result.ok_or_else(|| PyKeyboardInterrupt::new_err("render cancelled"))?;
+    let d = PyDict::new(py);
+    d.set_item("segments", stats.segments)?;
+    d.set_item("segments_visible", stats.segments_visible)?;
+    d.set_item("vertices_shaded", stats.vertices_shaded)?;
+    d.set_item("backfaces_culled", stats.backfaces_culled)?;
+    d.set_item("fragments", stats.fragments)?;
+    d.set_item("non_finite_pixels", stats.non_finite_pixels)?;
+    d.set_item("culled_behind_opaque", stats.culled_behind_opaque)?;
+    d.set_item("lights_culled", stats.lights_culled)?;
+    d.set_item("light_cull_max_skipped", stats.light_cull_max_skipped)?;
+    d.set_item("shadow_ms", stats.shadow_ms)?;
+    d.set_item("shadow_maps_reused", stats.shadow_maps_reused)?;
+    d.set_item("shadow_maps_skipped", stats.shadow_maps_skipped)?;
+    d.set_item("setup_ms", stats.setup_ms)?;
+    d.set_item("tiles_ms", stats.tiles_ms)?;
+    d.set_item("total_ms", stats.total_ms)?;
+    Ok((to_numpy(py, image.data), d))
+}

@@ -1,0 +1,526 @@
+//! Shading: the radiance a hair fragment or vertex scatters towards the
+//! eye from every light (with its shadow-map visibility) and the
+//! environment, and the diffuse shading of opaque surfaces. KarisHair runs
+//! on its vector kernel in batches ([`Shader::shade_serial`]); the other
+//! models per point ([`Shader::shade`]).
+
+use super::scene::{HairShading, Scene};
+use super::shadow::ShadowMap;
+use crate::fiber::karis::Transmittance;
+use crate::lighting::sh9_eval;
+use crate::threads::pool;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// One shadow map per light (None: the light casts no shadow, or its map
+/// was skipped).
+pub type ShadowMaps = [Option<Arc<ShadowMap>>];
+
+/// Light-culling statistics gathered locally and added to the render's
+/// counters once per batch ([`Shader::flush`]).
+#[derive(Default, Clone, Copy)]
+struct CullTally {
+    count: u64,
+    max: f32,
+}
+
+/// Everything hair shading needs, prepared once per render.
+pub struct Shader<'a> {
+    scene: &'a Scene,
+    /// The scene's model, with what it cannot use disabled (see [`Shader::new`]).
+    hair: HairShading,
+    /// The environment variant of a KarisHair model (when there is an environment).
+    env_model: Option<crate::fiber::karis::KarisHair<f32>>,
+    shadows: &'a ShadowMaps,
+    /// Upper bound of the hair BSDF's value over all directions (KarisHair;
+    /// `None`: no light culling).
+    f_max: Option<f32>,
+    /// Radiance below which a light's bounded contribution is skipped.
+    cull_threshold: f32,
+    /// Light evaluations skipped, and the largest skipped bound (f32 bits).
+    culled: std::sync::atomic::AtomicU64,
+    culled_max_bits: std::sync::atomic::AtomicU32,
+}
+
+impl<'a> Shader<'a> {
+    /// With KarisHair and Scatter = 0, the MS block adds exactly 0 under the
+    /// renderer's default transmittance (global 1, local 0, visibility 1: it
+    /// rescales the single scattering by 1 and adds a Kajiya-Kay term scaled
+    /// by Scatter), so it is compiled out (`skip_unused`).
+    ///
+    /// Light culling (`cull_threshold` > 0, KarisHair): a light whose
+    /// irradiance times the BSDF's upper bound is below the threshold at a
+    /// shading point is not evaluated there (nor its shadow map read). Each
+    /// skipped term is at most the threshold, so a pixel changes by at most
+    /// `threshold × lights` (its fragments' weights sum to ≤ 1); the largest
+    /// skipped bound is reported in the statistics.
+    pub fn new(
+        scene: &'a Scene,
+        shadows: &'a ShadowMaps,
+        skip_unused: bool,
+        cull_threshold: f32,
+    ) -> Self {
+        let hair = match &scene.hair {
+            HairShading::Karis(k) if skip_unused && k.scatter_is_zero() && k.components().ms => {
+                let mut c = k.components();
+                c.ms = false;
+                HairShading::Karis(k.with_components(c))
+            }
+            other => other.clone(),
+        };
+        let env_model = match (&scene.environment, &hair) {
+            (Some(_), HairShading::Karis(k)) => Some(k.environment_variant()),
+            _ => None,
+        };
+        let f_max = match &hair {
+            HairShading::Karis(k) if cull_threshold > 0.0 => Some(k.upper_bound()),
+            _ => None,
+        };
+        Self {
+            scene,
+            hair,
+            env_model,
+            shadows,
+            f_max,
+            cull_threshold,
+            culled: Default::default(),
+            culled_max_bits: Default::default(),
+        }
+    }
+
+    /// Whether [`Self::shade_batch`] and [`Self::shade_serial`] serve this
+    /// model (KarisHair on the vector kernel).
+    pub fn batches(&self) -> bool {
+        matches!(&self.hair, HairShading::Karis(k) if !k.fast_asin())
+    }
+
+    /// [`Self::shade`] for many points at once, in parallel chunks of
+    /// [`Self::shade_serial`] (`None` unless [`Self::batches`]).
+    pub fn shade_batch(
+        &self,
+        points: &[Vec3],
+        tangent: &(dyn Fn(usize) -> Vec3 + Sync),
+        eye: Vec3,
+    ) -> Option<Vec<Vec3>> {
+        if !self.batches() {
+            return None;
+        }
+        const CHUNK: usize = 4096;
+        let mut out = vec![Vec3::ZERO; points.len()];
+        pool().install(|| {
+            out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| {
+                let range = c * CHUNK..c * CHUNK + o.len();
+                let t: Vec<Vec3> = range.clone().map(tangent).collect();
+                self.shade_serial(&points[range], &t, eye, o);
+            })
+        });
+        Some(out)
+    }
+
+    /// [`Self::shade`] for `points` with `tangents`, on this thread, for
+    /// KarisHair (requires [`Self::batches`]): per light, the directions,
+    /// irradiance and shadow-map visibility per point, then one call of the
+    /// vector kernel over all points; the environment likewise. Equal to
+    /// `shade` up to the vector kernel's rounding.
+    pub fn shade_serial(&self, points: &[Vec3], tangents: &[Vec3], eye: Vec3, out: &mut [Vec3]) {
+        use crate::fiber::karis::simd::eval_range;
+        use crate::fiber::karis::KarisInputs;
+        let HairShading::Karis(k) = &self.hair else {
+            unreachable!("shade_serial without a KarisHair model");
+        };
+        let n = points.len();
+        let level = crate::simd::Level::detect();
+        let t: Vec<f32> = tangents.iter().flat_map(|x| x.to_array()).collect();
+        let v: Vec<f32> = points
+            .iter()
+            .flat_map(|p| (eye - *p).normalize_or_zero().to_array())
+            .collect();
+        out.fill(Vec3::ZERO);
+        let mut tally = CullTally::default();
+        let mut f = vec![0.0f32; 3 * n];
+        let mut l = vec![0.0f32; 3 * n];
+        let mut shadow = vec![0.0f32; n];
+        let mut irradiance = vec![Vec3::ZERO; n];
+        for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
+            // per point: direction, irradiance, visibility (0 where culled)
+            for (i, p) in points.iter().enumerate() {
+                let (li, e) = light.incident(*p);
+                l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
+                (irradiance[i], shadow[i]) = if self.culls(e, &mut tally) {
+                    (Vec3::ZERO, 0.0)
+                } else {
+                    (e, sm.as_ref().map_or(1.0, |m| m.visibility(*p)))
+                };
+            }
+            // The kernel runs on the points the light reaches (culled and
+            // fully shadowed ones add nothing); lanes are independent, so
+            // the values do not depend on which points share a batch.
+            let active: Vec<usize> = (0..n).filter(|&i| shadow[i] > 0.0).collect();
+            if active.is_empty() {
+                continue;
+            }
+            let (la, va, ta, sa);
+            let inp = if active.len() == n {
+                KarisInputs {
+                    shadow: &shadow,
+                    ..KarisInputs::directions(&l, &v, &t)
+                }
+            } else {
+                let pick3 = |a: &[f32]| -> Vec<f32> {
+                    active
+                        .iter()
+                        .flat_map(|&i| [a[3 * i], a[3 * i + 1], a[3 * i + 2]])
+                        .collect()
+                };
+                (la, va, ta) = (pick3(&l), pick3(&v), pick3(&t));
+                sa = active.iter().map(|&i| shadow[i]).collect::<Vec<f32>>();
+                KarisInputs {
+                    shadow: &sa,
+                    ..KarisInputs::directions(&la, &va, &ta)
+                }
+            };
+            let fa = &mut f[..3 * active.len()];
+            eval_range::<false>(k, &inp, 0, fa, level);
+            for (j, &i) in active.iter().enumerate() {
+                out[i] += Vec3::from_slice(&fa[3 * j..]) * irradiance[i] * shadow[i];
+            }
+        }
+        self.flush(tally);
+        if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
+            // L = the fake normal n = normalize(V − T(T·V)); π · SH(n)⁺ · f
+            for i in 0..n {
+                let (vi, ti) = (Vec3::from_slice(&v[3 * i..]), tangents[i]);
+                let nn = (vi - ti * ti.dot(vi)).normalize_or_zero();
+                l[3 * i..3 * i + 3].copy_from_slice(&nn.to_array());
+                irradiance[i] = Vec3::from(sh9_eval(&env.sh, &nn.to_array())).max(Vec3::ZERO);
+            }
+            eval_range::<false>(m, &KarisInputs::directions(&l, &v, &t), 0, &mut f, level);
+            for (i, o) in out.iter_mut().enumerate() {
+                *o += Vec3::from_slice(&f[3 * i..]) * irradiance[i] * std::f32::consts::PI;
+            }
+        }
+    }
+
+    /// The light-culling threshold for opaque diffuse surfaces: the hair's
+    /// when hair is culled (KarisHair), else 0 (off).
+    pub fn diffuse_cull(&self) -> f32 {
+        if self.f_max.is_some() {
+            self.cull_threshold
+        } else {
+            0.0
+        }
+    }
+
+    /// Whether light culling skips a light of irradiance `e` at a hair point
+    /// (its bounded contribution is below the threshold); counts the skip
+    /// and keeps the largest skipped bound in `tally` (see [`CullTally`]).
+    #[inline]
+    fn culls(&self, e: Vec3, tally: &mut CullTally) -> bool {
+        let Some(f_max) = self.f_max else {
+            return false;
+        };
+        let bound = f_max * e.max_element();
+        if bound >= self.cull_threshold {
+            return false;
+        }
+        tally.count += 1;
+        tally.max = tally.max.max(bound.max(0.0));
+        true
+    }
+
+    /// Adds a tally to the render's statistics (one atomic update per
+    /// batch: per point, two threads contending for the counters made
+    /// light culling slower than no culling).
+    fn flush(&self, tally: CullTally) {
+        use std::sync::atomic::Ordering::Relaxed;
+        if tally.count > 0 {
+            self.culled.fetch_add(tally.count, Relaxed);
+            // non-negative floats order as their bits
+            self.culled_max_bits.fetch_max(tally.max.to_bits(), Relaxed);
+        }
+    }
+
+    /// Light evaluations skipped so far, and the largest skipped bound.
+    pub fn light_cull_stats(&self) -> (u64, f32) {
+        use std::sync::atomic::Ordering::Relaxed;
+        (
+            self.culled.load(Relaxed),
+            f32::from_bits(self.culled_max_bits.load(Relaxed)),
+        )
+    }
+
+    /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
+    pub fn shade(&self, p: Vec3, t: Vec3, v: Vec3) -> Vec3 {
+        let mut out = Vec3::ZERO;
+        let mut tally = CullTally::default();
+        for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
+            let (l, e) = light.incident(p);
+            if self.culls(e, &mut tally) {
+                continue;
+            }
+            let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
+            if vis <= 0.0 {
+                continue;
+            }
+            let f = match &self.hair {
+                HairShading::Karis(k) => {
+                    let tr = Transmittance {
+                        shadow: vis,
+                        ..Default::default()
+                    };
+                    Vec3::from(k.eval(&l.to_array(), &v.to_array(), &t.to_array(), &tr))
+                }
+                HairShading::ChiangFar(c) => {
+                    // Mitsuba's convention: wi towards the viewer (its offset h is
+                    // the one averaged across the fiber's visible width), wo towards
+                    // the light.
+                    let (wi, wo) = fiber_frame(t, v, l);
+                    Vec3::from(c.eval_far(&wi, &wo))
+                }
+                HairShading::DEon(d) => {
+                    Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array()))
+                }
+            };
+            out += f * e * vis;
+        }
+        self.flush(tally);
+        if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
+            out += Vec3::from(m.dispatch(EnvOne { v, t, sh: &env.sh }));
+        }
+        out
+    }
+}
+
+struct EnvOne<'a> {
+    v: Vec3,
+    t: Vec3,
+    sh: &'a [[f32; 3]; 9],
+}
+
+impl crate::fiber::karis::LobeVisitor<f32> for EnvOne<'_> {
+    type Out = [f32; 3];
+    fn visit<const R: bool, const TT: bool, const TRT: bool, const MS: bool>(
+        self,
+        m: &crate::fiber::karis::KarisHair<f32>,
+    ) -> [f32; 3] {
+        m.env_lobes_static::<R, TT, TRT, MS>(&self.v.to_array(), &self.t.to_array(), self.sh)
+    }
+}
+
+/// `(a, b)` in a fiber frame with y = tangent (far field: the normal's
+/// rotation about y does not matter).
+#[inline]
+fn fiber_frame(t: Vec3, a: Vec3, b: Vec3) -> ([f32; 3], [f32; 3]) {
+    let n = t.any_orthonormal_vector();
+    let x = t.cross(n);
+    let to = |w: Vec3| [w.dot(x), w.dot(t), w.dot(n)];
+    (to(a), to(b))
+}
+
+/// Diffuse radiance of an opaque surface point. Light culling (`cull` > 0):
+/// a light with `irradiance/π` below `cull` is skipped (albedo ≤ 1, so its
+/// contribution is below `cull`).
+pub fn shade_diffuse(
+    scene: &Scene,
+    shadows: &ShadowMaps,
+    p: Vec3,
+    n: Vec3,
+    albedo: Vec3,
+    cull: f32,
+) -> Vec3 {
+    let mut e_total = Vec3::ZERO;
+    for (light, sm) in scene.lights.iter().zip(shadows) {
+        let (l, e) = light.incident(p);
+        let c = n.dot(l);
+        if c <= 0.0 || e.max_element() * std::f32::consts::FRAC_1_PI < cull {
+            continue;
+        }
+        let vis = sm
+            .as_ref()
+            .map_or(1.0, |m| m.visibility(p + n * 1e-4 * m.scale()));
+        e_total += e * c * vis;
+    }
+    if let Some(env) = &scene.environment {
+        // Irradiance of band-limited SH radiance: convolution with the
+        // clamped cosine (Ramamoorthi & Hanrahan 2001): π, 2π/3, π/4.
+        let a = [
+            std::f32::consts::PI,
+            2.0 * std::f32::consts::PI / 3.0,
+            std::f32::consts::PI / 4.0,
+        ];
+        let band = [0, 1, 1, 1, 2, 2, 2, 2, 2];
+        let sh: [[f32; 3]; 9] = std::array::from_fn(|k| env.sh[k].map(|c| c * a[band[k]]));
+        e_total += Vec3::from(sh9_eval(&sh, &n.to_array())).max(Vec3::ZERO);
+    }
+    albedo * std::f32::consts::FRAC_1_PI * e_total
+}
+
+/// Radiance shaded at the strand vertices where `needed` is set (all when
+/// `None`; 0 elsewhere), for per-vertex shading. Tangent: the central
+/// difference.
+pub fn shade_vertices(
+    scene: &Scene,
+    shader: &Shader<'_>,
+    eye: Vec3,
+    needed: Option<&[bool]>,
+) -> Vec<Vec3> {
+    let st = &scene.strands;
+    let mut owner = vec![0usize; st.points.len()];
+    for s in 0..st.strand_count() {
+        for o in &mut owner[st.offsets[s] as usize..st.offsets[s + 1] as usize] {
+            *o = s;
+        }
+    }
+    let tangent = |i: usize| {
+        let s = owner[i];
+        let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+        let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
+        (b - a).normalize_or_zero()
+    };
+    // The vertices to shade, as indices into the strands' points.
+    let index: Vec<usize> = match needed {
+        Some(m) => (0..st.points.len()).filter(|&i| m[i]).collect(),
+        None => (0..st.points.len()).collect(),
+    };
+    let points: Vec<Vec3> = index.iter().map(|&i| st.points[i]).collect();
+    let shaded = shader
+        .shade_batch(&points, &|j| tangent(index[j]), eye)
+        .unwrap_or_else(|| {
+            pool().install(|| {
+                index
+                    .par_iter()
+                    .map(|&i| {
+                        let p = st.points[i];
+                        shader.shade(p, tangent(i), (eye - p).normalize_or_zero())
+                    })
+                    .collect()
+            })
+        });
+    if needed.is_none() {
+        return shaded;
+    }
+    let mut out = vec![Vec3::ZERO; st.points.len()];
+    for (&i, c) in index.iter().zip(shaded) {
+        out[i] = c;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::scene::{Camera, Cards, Environment, Light, RenderOptions, Strands};
+    use super::super::setup::{scene_bounds, world_segments};
+    use super::*;
+    use crate::fiber::karis::KarisParams;
+
+    /// 1. Per-vertex shading on the vector kernel (one batch per light and
+    ///    one for the environment) against the per-point scalar path, with
+    ///    a shadowed directional light, a point light, an SH environment and
+    ///    the MS block on: equal to 1e-4 relative + 1e-7 absolute (the
+    ///    vector kernel's rounding; `fiber::karis::simd` test 1 bounds it
+    ///    against f64). Shading a subset of the vertices (frustum culling)
+    ///    gives the same bits for them.
+    #[test]
+    fn t01_batched_vertex_shading_matches_per_point_shading() {
+        let mut points = Vec::new();
+        let mut offsets = vec![0u32];
+        for s in 0..40 {
+            let a = s as f32 * 0.37;
+            for k in 0..12 {
+                let y = k as f32 * 0.08;
+                points.push(Vec3::new(
+                    a.cos() * (0.3 + 0.02 * k as f32),
+                    y,
+                    a.sin() * 0.3 + 0.01 * y * y,
+                ));
+            }
+            offsets.push(points.len() as u32);
+        }
+        let mut sh = [[0.0f32; 3]; 9];
+        sh[0] = [0.8, 0.8, 0.9];
+        sh[2] = [0.3, 0.2, 0.1];
+        sh[5] = [-0.2, 0.1, 0.0];
+        let scene = Scene {
+            camera: Camera {
+                position: Vec3::new(0.0, 0.5, 3.0),
+                target: Vec3::new(0.0, 0.5, 0.0),
+                up: Vec3::Y,
+                fov_y: 40.0,
+                width: 64,
+                height: 64,
+            },
+            lights: vec![
+                Light::Directional {
+                    direction: Vec3::new(0.5, 0.7, 0.5).normalize(),
+                    intensity: Vec3::splat(3.0),
+                    shadows: true,
+                },
+                Light::Point {
+                    position: Vec3::new(-1.0, 1.0, 1.0),
+                    intensity: Vec3::new(2.0, 1.5, 1.0),
+                    shadows: false,
+                },
+            ],
+            environment: Some(Environment { sh }),
+            strands: Strands {
+                radii: vec![0.004; points.len()],
+                points,
+                offsets,
+            },
+            cards: Cards::default(),
+            spheres: Vec::new(),
+            triangles: Vec::new(),
+            hair: HairShading::Karis(
+                KarisParams {
+                    scatter: 0.4,
+                    ..Default::default()
+                }
+                .build()
+                .unwrap(),
+            ),
+        };
+        let opts = RenderOptions::default();
+        let bounds = scene_bounds(&scene);
+        let world = world_segments(&scene.strands);
+        let shadows: Vec<_> = scene
+            .lights
+            .iter()
+            .map(|l| ShadowMap::build(l, &scene, &world, bounds, &opts).map(Arc::new))
+            .collect();
+        let shader = Shader::new(&scene, &shadows, true, 0.0);
+        let eye = scene.camera.position;
+        let batched = shade_vertices(&scene, &shader, eye, None);
+        let st = &scene.strands;
+        // A subset of the vertices shades to the same bits (each SIMD lane
+        // depends on its own inputs only), and the rest to 0.
+        let needed: Vec<bool> = (0..st.points.len()).map(|i| i % 3 != 1).collect();
+        let subset = shade_vertices(&scene, &shader, eye, Some(&needed));
+        for i in 0..st.points.len() {
+            let want = if needed[i] { batched[i] } else { Vec3::ZERO };
+            assert_eq!(subset[i], want, "vertex {i}");
+        }
+        let mut shadowed = 0;
+        for s in 0..st.strand_count() {
+            let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+            for i in i0..i1 {
+                let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
+                let p = st.points[i];
+                let want = shader.shade(
+                    p,
+                    (b - a).normalize_or_zero(),
+                    (eye - p).normalize_or_zero(),
+                );
+                let got = batched[i];
+                for c in 0..3 {
+                    assert!(
+                        (got[c] - want[c]).abs() <= 1e-4 * want[c].abs() + 1e-7,
+                        "vertex {i} channel {c}: {got} vs {want}"
+                    );
+                }
+                shadowed += (shadows[0].as_ref().unwrap().visibility(p) < 1.0) as usize;
+            }
+        }
+        assert!(shadowed > 0, "the test should exercise shadowed vertices");
+    }
+}

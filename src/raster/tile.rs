@@ -1,0 +1,365 @@
+//! One 16×16 tile, as a sequence of passes over the primitives binned to
+//! it: the opaque pass (background, spheres, mesh triangles: nearest depth
+//! and diffuse radiance per pixel), the strand pass and the card pass
+//! (hair fragments with their coverage, depth-tested against the opaque
+//! depth), the shading of the collected fragments, and the resolve (the
+//! transparency layers composited over the opaque surface).
+
+use super::bin::TILE;
+use super::coverage::{coverage, ray_sphere, triangle_pixels, RowSpan, Tri2};
+use super::cull::BehindOpaque;
+use super::oit::Layers;
+use super::scene::{RenderOptions, Scene, Transparency};
+use super::setup::{CardTri, Segment, SolidTri};
+use super::shade::{shade_diffuse, Shader, ShadowMaps};
+use super::view::View;
+use crate::lighting::sh9_eval;
+use glam::Vec3;
+
+/// What every tile of a render reads.
+pub struct TileContext<'a> {
+    pub scene: &'a Scene,
+    pub opts: &'a RenderOptions,
+    pub view: &'a View,
+    pub shadows: &'a ShadowMaps,
+    pub shader: &'a Shader<'a>,
+    pub segs: &'a [Segment],
+    pub cards: &'a [CardTri],
+    pub solids: &'a [SolidTri],
+}
+
+/// The primitives binned to one tile (indices, in scene order).
+pub struct TileBins<'a> {
+    pub segs: &'a [u32],
+    pub cards: &'a [u32],
+    pub solids: &'a [u32],
+}
+
+/// A finished tile.
+pub struct TileResult {
+    /// RGB radiance of the tile's 16×16 pixels, row-major (pixels outside
+    /// the image are 0).
+    pub pixels: Vec<f32>,
+    /// Hair fragments drawn.
+    pub fragments: u64,
+    /// Pixels whose radiance was not finite (written as 0).
+    pub non_finite: u64,
+    /// Segment or card-triangle visits skipped by opaque culling.
+    pub culled: u64,
+}
+
+impl TileResult {
+    /// The result of a tile that was not rendered (cancelled).
+    pub fn empty() -> Self {
+        Self {
+            pixels: Vec::new(),
+            fragments: 0,
+            non_finite: 0,
+            culled: 0,
+        }
+    }
+}
+
+/// Renders tile `(tx, ty)`.
+pub fn render_tile(ctx: &TileContext<'_>, bins: &TileBins<'_>, tx: u32, ty: u32) -> TileResult {
+    let mut t = Tile::new(ctx, tx, ty);
+    t.opaque_spheres();
+    t.opaque_meshes(bins.solids);
+    let behind = BehindOpaque::new(
+        ctx.opts.opaque_culling,
+        t.pixel_indices().map(|k| t.opaque_depth[k]),
+    );
+    t.strands(bins.segs, behind);
+    t.cards(bins.cards, behind);
+    t.shade_pending();
+    t.resolve()
+}
+
+/// A tile in progress.
+struct Tile<'a> {
+    ctx: &'a TileContext<'a>,
+    /// The tile's first pixel and its size (clipped to the image).
+    x0: u32,
+    y0: u32,
+    tw: u32,
+    th: u32,
+    /// Nearest opaque depth and the radiance behind the hair, per pixel.
+    opaque_depth: Vec<f32>,
+    base: Vec<Vec3>,
+    layers: Layers,
+    /// Per-pixel shading on the vector kernel: the tile's hair fragments are
+    /// collected (in the order they are produced), shaded in one batch, then
+    /// composited in that same order (MLAB depends on it).
+    deferred: bool,
+    pending: Pending,
+    fragments: u64,
+    culled: u64,
+}
+
+impl<'a> Tile<'a> {
+    fn new(ctx: &'a TileContext<'a>, tx: u32, ty: u32) -> Self {
+        let n = (TILE * TILE) as usize;
+        let (x0, y0) = (tx * TILE, ty * TILE);
+        Self {
+            ctx,
+            x0,
+            y0,
+            tw: TILE.min(ctx.view.width - x0),
+            th: TILE.min(ctx.view.height - y0),
+            opaque_depth: vec![f32::INFINITY; n],
+            base: vec![Vec3::ZERO; n],
+            layers: Layers::new(
+                n,
+                match ctx.opts.transparency {
+                    Transparency::Mlab(k) => Some(k),
+                    Transparency::Sorted => None,
+                },
+            ),
+            deferred: !ctx.opts.vertex_shading && ctx.shader.batches(),
+            pending: Pending::default(),
+            fragments: 0,
+            culled: 0,
+        }
+    }
+
+    /// Tile-local indices of the pixels inside the image.
+    fn pixel_indices(&self) -> impl Iterator<Item = usize> {
+        let tw = self.tw;
+        (0..self.th).flat_map(move |j| (0..tw).map(move |i| (j * TILE + i) as usize))
+    }
+
+    /// Centre of tile-local pixel (i, j) in image coordinates.
+    #[inline]
+    fn center(&self, i: i64, j: i64) -> [f32; 2] {
+        [
+            (self.x0 as i64 + i) as f32 + 0.5,
+            (self.y0 as i64 + j) as f32 + 0.5,
+        ]
+    }
+
+    /// Background (the environment seen along the ray, clamped SH, else the
+    /// constant) and the nearest sphere, per pixel.
+    fn opaque_spheres(&mut self) {
+        let (scene, view) = (self.ctx.scene, self.ctx.view);
+        for j in 0..self.th {
+            for i in 0..self.tw {
+                let k = (j * TILE + i) as usize;
+                let p = self.center(i as i64, j as i64);
+                let ray = view.ray(p[0], p[1]);
+                self.base[k] = match &scene.environment {
+                    Some(env) => Vec3::from(sh9_eval(&env.sh, &ray.to_array())).max(Vec3::ZERO),
+                    None => self.ctx.opts.background,
+                };
+                for s in &scene.spheres {
+                    if let Some(t) = ray_sphere(view.eye, ray, s.center, s.radius) {
+                        let depth = t * ray.dot(view.forward);
+                        if depth < self.opaque_depth[k] && depth > view.near {
+                            self.opaque_depth[k] = depth;
+                            let hit = view.eye + ray * t;
+                            self.base[k] = shade_diffuse(
+                                scene,
+                                self.ctx.shadows,
+                                hit,
+                                (hit - s.center) / s.radius,
+                                s.albedo,
+                                self.ctx.shader.diffuse_cull(),
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Opaque mesh triangles: nearest depth and diffuse shading per pixel
+    /// (two-sided: the normal faces the camera).
+    fn opaque_meshes(&mut self, bin: &[u32]) {
+        let view = self.ctx.view;
+        for &si in bin {
+            let t = &self.ctx.solids[si as usize];
+            let Some(tri) = Tri2::new(t.p) else { continue };
+            let b = tri.bounds.local(self.x0, self.y0, self.tw, self.th);
+            for (k, w, depth) in triangle_pixels(&tri, &t.z, b, self.x0, self.y0) {
+                if !(depth > view.near && depth < self.opaque_depth[k]) {
+                    continue;
+                }
+                self.opaque_depth[k] = depth;
+                let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
+                let n = if t.normal.dot(view.eye - pw) < 0.0 {
+                    -t.normal
+                } else {
+                    t.normal
+                };
+                self.base[k] = shade_diffuse(
+                    self.ctx.scene,
+                    self.ctx.shadows,
+                    pw,
+                    n,
+                    t.albedo,
+                    self.ctx.shader.diffuse_cull(),
+                );
+            }
+        }
+    }
+
+    /// A hair fragment at tile pixel `k`: shaded now, or collected for the
+    /// batch (`deferred`); `color` is the interpolated per-vertex radiance
+    /// when there is one.
+    #[inline]
+    fn hair_fragment(
+        &mut self,
+        k: usize,
+        depth: f32,
+        alpha: f32,
+        p: Vec3,
+        t: Vec3,
+        color: Option<Vec3>,
+    ) {
+        self.fragments += 1;
+        if self.deferred {
+            self.pending.push(k, depth, alpha, p, t);
+            return;
+        }
+        let c = color.unwrap_or_else(|| {
+            self.ctx
+                .shader
+                .shade(p, t, (self.ctx.view.eye - p).normalize_or_zero())
+        });
+        self.layers.add(k, depth, c, alpha);
+    }
+
+    /// Strand segments: every pixel of each segment's row spans, with
+    /// perspective-correct depth and world position, in scene order (so
+    /// every pixel sees its fragments in a fixed order).
+    fn strands(&mut self, bin: &[u32], behind: BehindOpaque) {
+        let (view, opts) = (self.ctx.view, self.ctx.opts);
+        let (x0, y0, tw, th) = (self.x0, self.y0, self.tw, self.th);
+        for &si in bin {
+            let s = &self.ctx.segs[si as usize];
+            if behind.hides(s.za.min(s.zb)) {
+                self.culled += 1;
+                continue;
+            }
+            let pad = s.pad();
+            let bx0 = ((s.a[0].min(s.b[0]) - pad).floor() as i64 - x0 as i64).max(0) as u32;
+            let bx1 = ((s.a[0].max(s.b[0]) + pad).ceil() as i64 - x0 as i64).min(tw as i64 - 1);
+            let by0 = ((s.a[1].min(s.b[1]) - pad).floor() as i64 - y0 as i64).max(0) as u32;
+            let by1 = ((s.a[1].max(s.b[1]) + pad).ceil() as i64 - y0 as i64).min(th as i64 - 1);
+            if bx1 < 0 || by1 < 0 {
+                continue;
+            }
+            let tangent = (s.pb - s.pa).normalize_or_zero();
+            let span = RowSpan::new(s, pad - 0.5);
+            for j in by0..=by1 as u32 {
+                let py = (y0 + j) as f32 + 0.5;
+                let Some((lo, hi)) = span.pixels(py, x0, bx0, bx1 as u32) else {
+                    continue;
+                };
+                for i in lo..=hi {
+                    let k = (j * TILE + i) as usize;
+                    let Some((cov, t)) = coverage(s, [(x0 + i) as f32 + 0.5, py]) else {
+                        continue;
+                    };
+                    // Perspective-correct depth and world position.
+                    let inv = (1.0 - t) / s.za + t / s.zb;
+                    let depth = 1.0 / inv;
+                    if !(depth > view.near && depth < self.opaque_depth[k]) {
+                        continue;
+                    }
+                    let tw_ = (t / s.zb) / inv;
+                    let pw = s.pa + (s.pb - s.pa) * tw_;
+                    let color = opts.vertex_shading.then(|| s.ca + (s.cb - s.ca) * tw_);
+                    self.hair_fragment(k, depth, cov, pw, tangent, color);
+                }
+            }
+        }
+    }
+
+    /// Card triangles: perspective-correct barycentrics, alpha from the
+    /// card's texture (cards are shaded per pixel in every mode).
+    fn cards(&mut self, bin: &[u32], behind: BehindOpaque) {
+        let (scene, view) = (self.ctx.scene, self.ctx.view);
+        for &ti in bin {
+            let t = &self.ctx.cards[ti as usize];
+            if behind.hides(t.z[0].min(t.z[1]).min(t.z[2])) {
+                self.culled += 1;
+                continue;
+            }
+            let Some(tri) = Tri2::new(t.p) else { continue };
+            let b = tri.bounds.local(self.x0, self.y0, self.tw, self.th);
+            let tex = &scene.cards.textures[t.tex as usize];
+            for (k, w, depth) in triangle_pixels(&tri, &t.z, b, self.x0, self.y0) {
+                if !(depth > view.near && depth < self.opaque_depth[k]) {
+                    continue;
+                }
+                let u = (w[0] * t.uv[0][0] + w[1] * t.uv[1][0] + w[2] * t.uv[2][0]) * depth;
+                let v = (w[0] * t.uv[0][1] + w[1] * t.uv[1][1] + w[2] * t.uv[2][1]) * depth;
+                let alpha = tex.sample(u, v);
+                if !(alpha > 0.0) {
+                    continue;
+                }
+                let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
+                self.hair_fragment(k, depth, alpha, pw, t.tangent, None);
+            }
+        }
+    }
+
+    /// The collected fragments, shaded in one batch and composited in the
+    /// order they were produced.
+    fn shade_pending(&mut self) {
+        if !self.deferred {
+            return;
+        }
+        let p = &self.pending;
+        let mut colors = vec![Vec3::ZERO; p.k.len()];
+        self.ctx
+            .shader
+            .shade_serial(&p.p, &p.t, self.ctx.view.eye, &mut colors);
+        for (i, c) in colors.into_iter().enumerate() {
+            self.layers.add(p.k[i] as usize, p.depth[i], c, p.alpha[i]);
+        }
+    }
+
+    /// The layers composited over the opaque radiance; non-finite pixels
+    /// become 0 and are counted.
+    fn resolve(mut self) -> TileResult {
+        let mut pixels = vec![0.0f32; (TILE * TILE * 3) as usize];
+        let mut non_finite = 0u64;
+        for k in self.pixel_indices() {
+            let col = self.layers.resolve(k, self.base[k]);
+            if col.is_finite() {
+                pixels[3 * k..3 * k + 3].copy_from_slice(&col.to_array());
+            } else {
+                non_finite += 1;
+            }
+        }
+        TileResult {
+            pixels,
+            fragments: self.fragments,
+            non_finite,
+            culled: self.culled,
+        }
+    }
+}
+
+/// Hair fragments of a tile awaiting shading: pixel, depth, coverage
+/// (alpha), world position, tangent.
+#[derive(Default)]
+struct Pending {
+    k: Vec<u32>,
+    depth: Vec<f32>,
+    alpha: Vec<f32>,
+    p: Vec<Vec3>,
+    t: Vec<Vec3>,
+}
+
+impl Pending {
+    #[inline]
+    fn push(&mut self, k: usize, depth: f32, alpha: f32, p: Vec3, t: Vec3) {
+        self.k.push(k as u32);
+        self.depth.push(depth);
+        self.alpha.push(alpha);
+        self.p.push(p);
+        self.t.push(t);
+    }
+}

@@ -1,0 +1,306 @@
+//! AVX2 and AVX-512 lanes. SAFETY (every `unsafe` block here): the
+//! intrinsics need AVX2+FMA / AVX-512F, and these types are only used
+//! inside functions compiled with those features, which run only after
+//! [`super::Level::detect`] found them on the CPU.
+use super::poly::SHIFTER_BITS;
+use super::Lanes;
+use std::arch::x86_64::*;
+use std::ops::{Add, BitAnd, Div, Mul, Neg, Sub};
+
+/// 8 lanes in a `__m256` (AVX2 + FMA).
+#[derive(Clone, Copy)]
+pub struct F8(__m256);
+/// Mask of [`F8`]: all-ones / all-zeros lanes.
+#[derive(Clone, Copy)]
+pub struct M8(__m256);
+
+impl BitAnd for M8 {
+    type Output = Self;
+    #[inline(always)]
+    fn bitand(self, b: Self) -> Self {
+        unsafe { M8(_mm256_and_ps(self.0, b.0)) }
+    }
+}
+
+impl Lanes for F8 {
+    const N: usize = 8;
+    type Mask = M8;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        unsafe { F8(_mm256_set1_ps(x)) }
+    }
+    #[inline(always)]
+    fn load(s: &[f32]) -> Self {
+        assert!(s.len() >= 8);
+        unsafe { F8(_mm256_loadu_ps(s.as_ptr())) }
+    }
+    #[inline(always)]
+    fn store(self, s: &mut [f32]) {
+        assert!(s.len() >= 8);
+        unsafe { _mm256_storeu_ps(s.as_mut_ptr(), self.0) }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        unsafe { F8(_mm256_sqrt_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        unsafe { F8(_mm256_fmadd_ps(self.0, a.0, b.0)) }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        unsafe { F8(_mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0)) }
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        // maxps(a, b) = a > b ? a : b, so a NaN `a` gives `b`
+        unsafe { F8(_mm256_max_ps(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        unsafe { F8(_mm256_min_ps(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> M8 {
+        unsafe { M8(_mm256_cmp_ps::<_CMP_LT_OQ>(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> M8 {
+        unsafe { M8(_mm256_cmp_ps::<_CMP_GT_OQ>(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> M8 {
+        unsafe { M8(_mm256_cmp_ps::<_CMP_LE_OQ>(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn is_nan(self) -> M8 {
+        unsafe { M8(_mm256_cmp_ps::<_CMP_UNORD_Q>(self.0, self.0)) }
+    }
+    #[inline(always)]
+    fn select(m: M8, a: Self, b: Self) -> Self {
+        unsafe { F8(_mm256_blendv_ps(b.0, a.0, m.0)) }
+    }
+    #[inline(always)]
+    fn all(m: M8) -> bool {
+        unsafe { _mm256_movemask_ps(m.0) == 0xff }
+    }
+    #[inline(always)]
+    fn scale_pow2(self, shifted: Self) -> Self {
+        unsafe {
+            let n = _mm256_sub_epi32(
+                _mm256_castps_si256(shifted.0),
+                _mm256_set1_epi32(SHIFTER_BITS),
+            );
+            let half = _mm256_srai_epi32::<1>(n);
+            let bias = _mm256_set1_epi32(127);
+            let s1 = _mm256_slli_epi32::<23>(_mm256_add_epi32(half, bias));
+            let s2 = _mm256_slli_epi32::<23>(_mm256_add_epi32(_mm256_sub_epi32(n, half), bias));
+            F8(_mm256_mul_ps(
+                _mm256_mul_ps(self.0, _mm256_castsi256_ps(s1)),
+                _mm256_castsi256_ps(s2),
+            ))
+        }
+    }
+    #[inline(always)]
+    fn scale_pow2_small(self, shifted: Self) -> Self {
+        unsafe {
+            // (bits(shifted) − SHIFTER_BITS + 127) << 23
+            let e = _mm256_add_epi32(
+                _mm256_castps_si256(shifted.0),
+                _mm256_set1_epi32(127 - SHIFTER_BITS),
+            );
+            F8(_mm256_mul_ps(
+                self.0,
+                _mm256_castsi256_ps(_mm256_slli_epi32::<23>(e)),
+            ))
+        }
+    }
+}
+
+/// 16 lanes in a `__m512` (AVX-512F).
+#[derive(Clone, Copy)]
+pub struct F16(__m512);
+/// Mask of [`F16`]: one bit per lane.
+#[derive(Clone, Copy)]
+pub struct M16(__mmask16);
+
+impl BitAnd for M16 {
+    type Output = Self;
+    #[inline(always)]
+    fn bitand(self, b: Self) -> Self {
+        M16(self.0 & b.0)
+    }
+}
+
+impl Lanes for F16 {
+    const N: usize = 16;
+    type Mask = M16;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        unsafe { F16(_mm512_set1_ps(x)) }
+    }
+    #[inline(always)]
+    fn load(s: &[f32]) -> Self {
+        assert!(s.len() >= 16);
+        unsafe { F16(_mm512_loadu_ps(s.as_ptr())) }
+    }
+    #[inline(always)]
+    fn store(self, s: &mut [f32]) {
+        assert!(s.len() >= 16);
+        unsafe { _mm512_storeu_ps(s.as_mut_ptr(), self.0) }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        unsafe { F16(_mm512_sqrt_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        unsafe { F16(_mm512_fmadd_ps(self.0, a.0, b.0)) }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        unsafe { F16(_mm512_abs_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        unsafe { F16(_mm512_max_ps(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        unsafe { F16(_mm512_min_ps(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> M16 {
+        unsafe { M16(_mm512_cmp_ps_mask::<_CMP_LT_OQ>(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> M16 {
+        unsafe { M16(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> M16 {
+        unsafe { M16(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(self.0, b.0)) }
+    }
+    #[inline(always)]
+    fn is_nan(self) -> M16 {
+        unsafe { M16(_mm512_cmp_ps_mask::<_CMP_UNORD_Q>(self.0, self.0)) }
+    }
+    #[inline(always)]
+    fn select(m: M16, a: Self, b: Self) -> Self {
+        unsafe { F16(_mm512_mask_blend_ps(m.0, b.0, a.0)) }
+    }
+    #[inline(always)]
+    fn all(m: M16) -> bool {
+        m.0 == 0xffff
+    }
+    #[inline(always)]
+    fn scale_pow2(self, shifted: Self) -> Self {
+        unsafe {
+            let n = _mm512_sub_epi32(
+                _mm512_castps_si512(shifted.0),
+                _mm512_set1_epi32(SHIFTER_BITS),
+            );
+            let half = _mm512_srai_epi32::<1>(n);
+            let bias = _mm512_set1_epi32(127);
+            let s1 = _mm512_slli_epi32::<23>(_mm512_add_epi32(half, bias));
+            let s2 = _mm512_slli_epi32::<23>(_mm512_add_epi32(_mm512_sub_epi32(n, half), bias));
+            F16(_mm512_mul_ps(
+                _mm512_mul_ps(self.0, _mm512_castsi512_ps(s1)),
+                _mm512_castsi512_ps(s2),
+            ))
+        }
+    }
+    #[inline(always)]
+    fn scale_pow2_small(self, shifted: Self) -> Self {
+        unsafe {
+            // (bits(shifted) − SHIFTER_BITS + 127) << 23
+            let e = _mm512_add_epi32(
+                _mm512_castps_si512(shifted.0),
+                _mm512_set1_epi32(127 - SHIFTER_BITS),
+            );
+            F16(_mm512_mul_ps(
+                self.0,
+                _mm512_castsi512_ps(_mm512_slli_epi32::<23>(e)),
+            ))
+        }
+    }
+}
+
+macro_rules! ops {
+    ($ty:ident, $add:ident, $sub:ident, $mul:ident, $div:ident, $xor:ident, $set1:ident) => {
+        impl Add for $ty {
+            type Output = Self;
+            #[inline(always)]
+            fn add(self, b: Self) -> Self {
+                unsafe { $ty($add(self.0, b.0)) }
+            }
+        }
+        impl Sub for $ty {
+            type Output = Self;
+            #[inline(always)]
+            fn sub(self, b: Self) -> Self {
+                unsafe { $ty($sub(self.0, b.0)) }
+            }
+        }
+        impl Mul for $ty {
+            type Output = Self;
+            #[inline(always)]
+            fn mul(self, b: Self) -> Self {
+                unsafe { $ty($mul(self.0, b.0)) }
+            }
+        }
+        impl Div for $ty {
+            type Output = Self;
+            #[inline(always)]
+            fn div(self, b: Self) -> Self {
+                unsafe { $ty($div(self.0, b.0)) }
+            }
+        }
+        impl Add<f32> for $ty {
+            type Output = Self;
+            #[inline(always)]
+            fn add(self, b: f32) -> Self {
+                self + <$ty as Lanes>::splat(b)
+            }
+        }
+        impl Sub<f32> for $ty {
+            type Output = Self;
+            #[inline(always)]
+            fn sub(self, b: f32) -> Self {
+                self - <$ty as Lanes>::splat(b)
+            }
+        }
+        impl Mul<f32> for $ty {
+            type Output = Self;
+            #[inline(always)]
+            fn mul(self, b: f32) -> Self {
+                self * <$ty as Lanes>::splat(b)
+            }
+        }
+        impl Neg for $ty {
+            type Output = Self;
+            #[inline(always)]
+            fn neg(self) -> Self {
+                unsafe { $ty($xor(self.0, $set1(-0.0))) }
+            }
+        }
+    };
+}
+ops!(
+    F8,
+    _mm256_add_ps,
+    _mm256_sub_ps,
+    _mm256_mul_ps,
+    _mm256_div_ps,
+    _mm256_xor_ps,
+    _mm256_set1_ps
+);
+ops!(
+    F16,
+    _mm512_add_ps,
+    _mm512_sub_ps,
+    _mm512_mul_ps,
+    _mm512_div_ps,
+    _mm512_xor_ps,
+    _mm512_set1_ps
+);
