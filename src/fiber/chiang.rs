@@ -52,7 +52,9 @@
 mod far;
 mod sample;
 pub(crate) mod simd;
+mod table;
 pub use far::{composite_gamma_rule, far_field_nodes};
+pub use table::{ChiangFarTable, TableSize};
 
 use crate::fiber::frame::{azimuth, offset, sin_cos_theta, Vec3};
 use crate::fiber::lobes::{deon_mp, deon_mp_mitsuba};
@@ -260,6 +262,24 @@ impl<T: Real> ChiangHair<T> {
                 .into_iter()
                 .map(|(g, w)| [g, g.sin(), g.cos(), w].map(T::from_f64))
                 .collect(),
+        }
+    }
+
+    /// The same model in precision `U` (the constants are computed in f64
+    /// and rounded once, as [`ChiangParams::build`] does, so
+    /// `build::<f64>()?.cast::<f32>()` equals `build::<f32>()?`).
+    pub fn cast<U: Real>(&self) -> ChiangHair<U> {
+        let c = |x: T| U::from_f64(x.to_f64());
+        ChiangHair {
+            v: self.v.map(c),
+            s: c(self.s),
+            inv_norm: c(self.inv_norm),
+            sin_2k_alpha: self.sin_2k_alpha.map(c),
+            cos_2k_alpha: self.cos_2k_alpha.map(c),
+            eta: c(self.eta),
+            sigma_a: self.sigma_a.map(c),
+            i0: self.i0,
+            far_nodes: self.far_nodes.iter().map(|n| n.map(c)).collect(),
         }
     }
 

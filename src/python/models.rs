@@ -4,18 +4,21 @@
 //! `python/hairshade/{chiang,karis,deon}.py`.
 
 use super::convert::{
-    by_name, compute, entries, pairs, to_numpy, value_error, with_floats, without_gil, Floats,
+    by_name, compute, entries, pairs, to_numpy, value_error, with_floats, without_gil, Float,
+    Floats,
 };
 use crate::batch::{
     chiang_eval, deon_eval, dir_at, karis_eval, karis_eval_env, map_pairs_rgb, map_pairs_scalar,
     par_map, sample_batch, SampleOut,
 };
 use crate::fiber::chiang::{azimuthal_scale, longitudinal_variance};
+use crate::fiber::chiang::{ChiangFarTable, TableSize};
 use crate::fiber::deon::{DEonHair, DEonParams};
 use crate::fiber::karis::{Absorption, Components, KarisHair, KarisInputs, KarisParams};
 use crate::fiber::{ChiangHair, ChiangParams, I0Mode};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use std::sync::Arc;
 
 /// The component flags named in `names` ("R", "TT", "TRT", "MS").
 fn components(names: &[String]) -> PyResult<Components> {
@@ -50,10 +53,11 @@ pub struct Directions<'py>(Floats<'py>, Floats<'py>, Floats<'py>);
 
 /// The ChiangHair operations on pairs of directions.
 #[derive(Clone, Copy)]
-enum ChiangOp {
+enum ChiangOp<'a> {
     Eval,
-    EvalFar,
-    EvalFarLobes,
+    /// The far field: by quadrature, or from a table.
+    EvalFar(Option<&'a ChiangFarTable>),
+    EvalFarLobes(Option<&'a ChiangFarTable>),
     Pdf,
 }
 
@@ -65,17 +69,23 @@ impl PyChiangHair {
         py: Python<'py>,
         wi: Floats<'py>,
         wo: Floats<'py>,
-        op: ChiangOp,
+        op: ChiangOp<'_>,
     ) -> Out<'py> {
         with_floats!(self.m, (wi, wo) => {
             let n = pairs(wi, wo)?;
             Ok(match op {
                 ChiangOp::Eval => compute(py, 3 * n, |o| chiang_eval(m, wi, wo, o)),
-                ChiangOp::EvalFar => compute(py, 3 * n, |o| map_pairs_rgb(wi, wo, o, |a, b| m.eval_far(a, b))),
-                ChiangOp::EvalFarLobes => compute(py, 12 * n, |o| {
+                ChiangOp::EvalFar(None) => compute(py, 3 * n, |o| map_pairs_rgb(wi, wo, o, |a, b| m.eval_far(a, b))),
+                ChiangOp::EvalFar(Some(t)) => compute(py, 3 * n, |o| {
+                    map_pairs_rgb(wi, wo, o, |a, b| t.eval(&to_f32(a), &to_f32(b)).map(from_f32))
+                }),
+                ChiangOp::EvalFarLobes(table) => compute(py, 12 * n, |o| {
                     par_map(o, |i| match (dir_at(wi, i), dir_at(wo, i)) {
                         (Some(a), Some(b)) => {
-                            let l = m.eval_far_lobes(&a, &b);
+                            let l = match table {
+                                None => m.eval_far_lobes(&a, &b),
+                                Some(t) => t.eval_lobes(&to_f32(&a), &to_f32(&b)).map(|x| x.map(from_f32)),
+                            };
                             std::array::from_fn::<_, 12, _>(|k| l[k / 3][k % 3])
                         }
                         _ => [0.0; 12],
@@ -93,6 +103,52 @@ pub struct PyChiangHair {
     m32: ChiangHair<f32>,
     m64: ChiangHair<f64>,
     sigma_a: [f64; 3],
+    /// The far-field table at the default grid, built on first use.
+    table: std::sync::OnceLock<Arc<ChiangFarTable>>,
+}
+
+impl PyChiangHair {
+    /// The default far-field table (built once, with the GIL released by
+    /// the caller where it matters).
+    pub(super) fn table(&self) -> Arc<ChiangFarTable> {
+        self.table
+            .get_or_init(|| {
+                let size = TableSize::for_scale(self.m64.logistic_scale());
+                Arc::new(ChiangFarTable::new(&self.m64, size))
+            })
+            .clone()
+    }
+
+    /// The table an operation uses: none (quadrature), the default, or one
+    /// built for `size`.
+    fn table_for(
+        &self,
+        py: Python<'_>,
+        fast: bool,
+        size: Option<(usize, usize, f64)>,
+    ) -> Option<Arc<ChiangFarTable>> {
+        match (fast, size) {
+            (false, _) => None,
+            (true, None) => Some(without_gil(py, || self.table())),
+            (true, Some((cos_theta, phi, panel_width))) => Some(Arc::new(without_gil(py, || {
+                let size = TableSize {
+                    cos_theta,
+                    phi,
+                    panel_width,
+                };
+                ChiangFarTable::new(&self.m64, size)
+            }))),
+        }
+    }
+}
+
+/// A direction in f32 (the tables' precision).
+fn to_f32<T: Float>(w: &[T; 3]) -> [f32; 3] {
+    w.map(|x| x.to_f64() as f32)
+}
+
+fn from_f32<T: Float>(x: f32) -> T {
+    T::from_f64(x as f64)
 }
 
 #[pymethods]
@@ -129,6 +185,7 @@ impl PyChiangHair {
             m32: p.build().map_err(value_error)?,
             m64: p.build().map_err(value_error)?,
             sigma_a: p.absorption(),
+            table: Default::default(),
         })
     }
 
@@ -137,14 +194,43 @@ impl PyChiangHair {
         self.per_pair(py, wi, wo, ChiangOp::Eval)
     }
 
-    /// Far field (average over h): 3 values per pair.
-    fn eval_far<'py>(&self, py: Python<'py>, wi: Floats<'py>, wo: Floats<'py>) -> Out<'py> {
-        self.per_pair(py, wi, wo, ChiangOp::EvalFar)
+    /// Far field (average over h): 3 values per pair; by quadrature, or
+    /// with `fast` from the tabulated azimuthal terms (`table`: a grid
+    /// (cos θ nodes, φ nodes, quadrature panel width in logistic scales)
+    /// other than the default, built for this call).
+    #[pyo3(signature = (wi, wo, fast=false, table=None))]
+    fn eval_far<'py>(
+        &self,
+        py: Python<'py>,
+        wi: Floats<'py>,
+        wo: Floats<'py>,
+        fast: bool,
+        table: Option<(usize, usize, f64)>,
+    ) -> Out<'py> {
+        let t = self.table_for(py, fast, table);
+        self.per_pair(py, wi, wo, ChiangOp::EvalFar(t.as_deref()))
     }
 
-    /// Far field per lobe (R, TT, TRT, residual): 12 values per pair.
-    fn eval_far_lobes<'py>(&self, py: Python<'py>, wi: Floats<'py>, wo: Floats<'py>) -> Out<'py> {
-        self.per_pair(py, wi, wo, ChiangOp::EvalFarLobes)
+    /// Far field per lobe (R, TT, TRT, residual): 12 values per pair
+    /// (`fast`, `table`: as `eval_far`).
+    #[pyo3(signature = (wi, wo, fast=false, table=None))]
+    fn eval_far_lobes<'py>(
+        &self,
+        py: Python<'py>,
+        wi: Floats<'py>,
+        wo: Floats<'py>,
+        fast: bool,
+        table: Option<(usize, usize, f64)>,
+    ) -> Out<'py> {
+        let t = self.table_for(py, fast, table);
+        self.per_pair(py, wi, wo, ChiangOp::EvalFarLobes(t.as_deref()))
+    }
+
+    /// The default far-field table's grid (cos θ nodes, φ nodes) and bytes.
+    #[getter]
+    fn far_table_size(&self) -> (usize, usize, usize) {
+        let t = self.table();
+        (t.size().cos_theta, t.size().phi, t.bytes())
     }
 
     /// Solid-angle density of `sample`: one value per pair.
@@ -369,11 +455,5 @@ impl PyDEonHair {
             let w = if lobes { 9 } else { 3 };
             Ok(compute(py, w * n, |o| deon_eval(m, l, v, t, lobes, o)))
         })
-    }
-}
-
-impl PyChiangHair {
-    pub(super) fn m32(&self) -> &ChiangHair<f32> {
-        &self.m32
     }
 }

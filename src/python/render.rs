@@ -398,7 +398,8 @@ fn build_scene(a: SceneArgs<'_>) -> PyResult<Scene> {
     let hair = if let Ok(k) = a.hair.cast::<PyKarisHair>() {
         HairShading::Karis(k.get().m32.clone())
     } else if let Ok(c) = a.hair.cast::<PyChiangHair>() {
-        HairShading::ChiangFar(Box::new(c.get().m32().clone()))
+        let c = c.get();
+        HairShading::ChiangFar(without_gil(a.hair.py(), || c.table()))
     } else if let Ok(d) = a.hair.cast::<PyDEonHair>() {
         HairShading::DEon(Box::new(d.get().m32.clone()))
     } else {

@@ -3,7 +3,7 @@
 //! `python/hairshade/scene.py`; the Rust types assume valid input and
 //! guard only against what would panic or poison an image.
 
-use crate::fiber::chiang::ChiangHair;
+use crate::fiber::chiang::ChiangFarTable;
 use crate::fiber::deon::DEonHair;
 use crate::fiber::karis::KarisHair;
 use glam::Vec3;
@@ -149,8 +149,9 @@ pub struct OpaqueTri {
 pub enum HairShading {
     /// UE4 `HairShading()` (default).
     Karis(KarisHair<f32>),
-    /// Chiang 2016 far field (for comparison with Mitsuba's `hair`).
-    ChiangFar(Box<ChiangHair<f32>>),
+    /// Chiang 2016 far field from its tables (for comparison with
+    /// Mitsuba's `hair`).
+    ChiangFar(std::sync::Arc<ChiangFarTable>),
     /// UE4 `HairShadingRef()` (slow: an N_p integral per lobe and fragment;
     /// use its `h_samples` mode for previews).
     DEon(Box<DEonHair<f32>>),

@@ -275,8 +275,12 @@ impl<'a> Shader<'a> {
                     // Mitsuba's convention: wi towards the viewer (its offset h is
                     // the one averaged across the fiber's visible width), wo towards
                     // the light.
-                    let (wi, wo) = fiber_frame(t, v, l);
-                    Vec3::from(c.eval_far(&wi, &wo))
+                    let g = FiberAngles::new(t, v, l);
+                    let lobes = c.lobes_from_angles(g.view, g.light, g.phi);
+                    Vec3::from(lobes[0])
+                        + Vec3::from(lobes[1])
+                        + Vec3::from(lobes[2])
+                        + Vec3::from(lobes[3])
                 }
                 HairShading::DEon(d) => {
                     Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array()))
@@ -308,14 +312,28 @@ impl crate::fiber::karis::LobeVisitor<f32> for EnvOne<'_> {
     }
 }
 
-/// `(a, b)` in a fiber frame with y = tangent (far field: the normal's
-/// rotation about y does not matter).
-#[inline]
-fn fiber_frame(t: Vec3, a: Vec3, b: Vec3) -> ([f32; 3], [f32; 3]) {
-    let n = t.any_orthonormal_vector();
-    let x = t.cross(n);
-    let to = |w: Vec3| [w.dot(x), w.dot(t), w.dot(n)];
-    (to(a), to(b))
+/// The angles a far-field fiber model depends on, for tangent `t`, view
+/// `v` and light `l` (unit vectors): (sin θ, cos θ) of the view and of the
+/// light (θ from the normal plane, cos θ ≥ 0), and the azimuth between
+/// their projections on the normal plane, in [0, π].
+#[derive(Debug, Clone, Copy)]
+pub struct FiberAngles {
+    pub view: (f32, f32),
+    pub light: (f32, f32),
+    pub phi: f32,
+}
+
+impl FiberAngles {
+    #[inline]
+    pub fn new(t: Vec3, v: Vec3, l: Vec3) -> Self {
+        let (sv, sl) = (t.dot(v).clamp(-1.0, 1.0), t.dot(l).clamp(-1.0, 1.0));
+        let (vp, lp) = (v - t * sv, l - t * sl);
+        Self {
+            view: (sv, (1.0 - sv * sv).max(0.0).sqrt()),
+            light: (sl, (1.0 - sl * sl).max(0.0).sqrt()),
+            phi: vp.cross(lp).length().atan2(vp.dot(lp)),
+        }
+    }
 }
 
 /// Diffuse radiance of an opaque surface point. Light culling (`cull` > 0):
