@@ -170,6 +170,17 @@ class ChiangHair:
         (cos theta_i nodes, phi nodes, bytes); building it on first use."""
         return tuple(self._native.far_table_size)  # type: ignore[return-value]
 
+    def dual_terms(self, back_density: float = 0.7) -> dict[str, np.ndarray]:
+        """The dual-scattering terms of this material (Zinke et al. 2008),
+        integrated from its far field (the table of ``eval_far(fast=True)``)
+        at 65 incidences ``sin_theta`` from -1 to 1: ``a_f``, ``a_b`` (forward
+        and backward attenuation), ``alpha_f``, ``beta_f2``, ``alpha_b``,
+        ``beta_b2`` (mean and variance of sin(theta_o) + sin(theta_i) on each
+        half), ``A_b``, ``delta_b``, ``sigma_b2`` (local back scattering with
+        back density ``back_density``), each (65, 3). Built once per
+        material and density."""
+        return dict(self._native.dual_terms(float(back_density)))
+
     def pdf(self, wi: object, wo: object) -> np.ndarray:
         """Solid-angle density of ``sample``: (N,3),(N,3) -> (N,)."""
         a, b, dtype, n, single = _arrays.prepare_pairs(wi, wo)

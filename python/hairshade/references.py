@@ -41,6 +41,8 @@ def comparison_scene(name: str, examples_dir: str | None = None) -> Scene:
     if mat.get("model", "karis") != "chiang":
         d["hair"]["material"] = {"model": "chiang", **HEAD_CHIANG}
     d["lights"] = [l for l in d["lights"] if l["type"] != "environment"]
+    # the references are direct light only: no multiple scattering
+    d.setdefault("render", {})["multiple_scattering"] = "none"
     return Scene.from_dict(d, base_dir=os.path.dirname(os.path.abspath(path)), source=path)
 
 

@@ -26,6 +26,7 @@ def render(
     skip_unused: bool | None = None,
     reuse_shadow_maps: bool | None = None,
     light_cull_threshold: float | None = None,
+    multiple_scattering: str | None = None,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
@@ -60,7 +61,11 @@ def render(
       irradiance times the model's upper bound is below this radiance at a
       shading point is skipped there (on opaque surfaces: irradiance/pi); a
       pixel changes by at most threshold x lights (0 turns it off; the
-      stats report the number skipped and the largest skipped bound).
+      stats report the number skipped and the largest skipped bound);
+    - ``multiple_scattering`` ("auto", default: KarisHair's own term for
+      KarisHair, none for the other models; "none"; "karis", KarisHair only;
+      "dual", ChiangHair only: dual scattering through the fiber density
+      grid, see the scene format's ``render.multiple_scattering``).
 
     Ranges are checked by the renderer; a ``ValueError`` names the option.
     ``progress``: a progress bar on stderr (default: when stderr is a
@@ -76,6 +81,7 @@ def render(
         transparency=transparency, layers=layers, shading=shading, frustum_culling=frustum_culling,
         backface_culling=backface_culling, opaque_culling=opaque_culling, skip_unused=skip_unused,
         reuse_shadow_maps=reuse_shadow_maps, light_cull_threshold=light_cull_threshold,
+        multiple_scattering=multiple_scattering,
     )
     options.update({k: v for k, v in overrides.items() if v is not None})
     show = sys.stderr.isatty() if progress is None else progress

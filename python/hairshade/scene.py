@@ -40,9 +40,23 @@ A scene file::
   ``chiang`` (ChiangHair keyword arguments; shaded with its far field) or
   ``deon`` (DEonHair keyword arguments; slow unless ``h_samples`` is set).
 - ``render.shadow_model``: ``exponential`` (default, Karis 2016:
-  ``exp(-shadow_density * depth behind the first hair)``) or ``opacity``
-  (opacity accumulated through the hair along the light in 8 depth slabs, a
-  deep opacity map: 32 bytes per shadow-map texel).
+  ``exp(-shadow_density * depth behind the first hair)``), ``opacity`` (a
+  deep opacity map: the nearest 4 fibers per texel kept exactly, with their
+  strand, so a fiber does not shadow itself, and the rest in 12 depth slabs
+  of growing width: 112 bytes per shadow-map texel), ``density`` (hair's
+  shadow from the fiber density grid: ``exp(-n)`` for the expected number
+  ``n`` of fibers crossed towards the light; the map holds opaque geometry
+  only) or ``traced`` (rays through the strands: exact on the rendered
+  geometry and slow, a reference).
+- ``render.density_resolution`` (8 to 512, default 128): voxels along the
+  longest side of the hair's bounds in the fiber density grid (shadow model
+  ``density`` and dual scattering).
+- ``render.multiple_scattering``: ``auto`` (default: KarisHair's own term
+  for KarisHair, none for the others), ``none``, ``karis`` (KarisHair only)
+  or ``dual`` (ChiangHair only: dual scattering through the density grid,
+  Zinke et al. 2008, tables integrated from the material's far field; see
+  ``ChiangHair.dual_terms``); ``dual_forward_density`` and
+  ``dual_back_density`` (0 to 1, default 0.7) are its d_f and d_b.
 - ``render.shading``: ``pixel`` (default: every strand fragment shaded) or
   ``vertex`` (strands shaded once per vertex and interpolated along each
   segment; cards are always shaded per pixel).
@@ -51,7 +65,9 @@ A scene file::
 - ``render`` takes every render option of :func:`hairshade.render`
   (``transparency``, ``layers``, ``shadow_map_size``, ``shadow_model``,
   ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
-  culling switches, ``light_cull_threshold``); their types and ranges are
+  culling switches, ``light_cull_threshold``, ``density_resolution``,
+  ``multiple_scattering``, ``dual_forward_density``,
+  ``dual_back_density``); their types and ranges are
   checked by the renderer itself (``hairshade._native.render_options``), the
   one place they are defined.
 - Every field is checked on load; an error names the file, the field's path

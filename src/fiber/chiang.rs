@@ -422,6 +422,19 @@ impl<T: Real> ChiangHair<T> {
         m
     }
 
+    /// [`Self::longitudinal_terms`] with every lobe's variance raised by
+    /// `extra_v` (the longitudinal spread of light forward-scattered by
+    /// other fibers: dual scattering), from (sin θ, cos θ) of wi and wo.
+    pub fn longitudinal_widened(&self, wi: (T, T), wo: (T, T), extra_v: T) -> [T; P_MAX + 1] {
+        let mut m = [T::ZERO; P_MAX + 1];
+        for (p, mp) in m.iter_mut().enumerate().take(P_MAX) {
+            let (sin_ip, cos_ip) = self.reframe_with_scales(wi.0, wi.1, p);
+            *mp = deon_mp(sin_ip, cos_ip, wo.0, wo.1, self.v[p] + extra_v);
+        }
+        m[P_MAX] = deon_mp(wi.0, wi.1, wo.0, wo.1, self.v[P_MAX] + extra_v) * T::INV_TWO_PI;
+        m
+    }
+
     /// M_p N_p per explicit lobe and the residual's M/2π, for one h.
     #[inline(always)]
     fn lobe_densities(

@@ -4,6 +4,7 @@
 
 pub mod chiang;
 pub mod deon;
+pub mod dual;
 pub mod frame;
 pub mod karis;
 pub mod lobes;

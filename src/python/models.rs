@@ -16,8 +16,10 @@ use crate::fiber::chiang::{ChiangFarTable, TableSize};
 use crate::fiber::deon::{DEonHair, DEonParams};
 use crate::fiber::karis::{Absorption, Components, KarisHair, KarisInputs, KarisParams};
 use crate::fiber::{ChiangHair, ChiangParams, I0Mode};
+use numpy::PyArrayMethods;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use std::sync::Arc;
 
 /// The component flags named in `names` ("R", "TT", "TRT", "MS").
@@ -231,6 +233,44 @@ impl PyChiangHair {
     fn far_table_size(&self) -> (usize, usize, usize) {
         let t = self.table();
         (t.size().cos_theta, t.size().phi, t.bytes())
+    }
+
+    /// The dual-scattering terms over the incidence nodes (sin θ from -1 to
+    /// 1): a dict of float64 arrays, (nodes,) for `sin_theta` and
+    /// (nodes, 3) for each term (see `crate::fiber::dual`).
+    #[pyo3(signature = (back_density=0.7))]
+    fn dual_terms<'py>(&self, py: Python<'py>, back_density: f64) -> PyResult<Bound<'py, PyDict>> {
+        if !(0.0..=1.0).contains(&back_density) {
+            return Err(PyValueError::new_err(format!(
+                "back_density: must be in [0, 1], got {back_density}"
+            )));
+        }
+        let dual = without_gil(py, || self.table().dual(back_density as f32));
+        let nodes = dual.nodes();
+        let d = PyDict::new(py);
+        let k = nodes.len();
+        let u: Vec<f64> = (0..k)
+            .map(|i| -1.0 + 2.0 * i as f64 / (k - 1) as f64)
+            .collect();
+        d.set_item("sin_theta", numpy::PyArray1::from_vec(py, u))?;
+        type Get = fn(&crate::fiber::dual::DualTerms) -> [f32; 3];
+        let fields: [(&str, Get); 9] = [
+            ("a_f", |t| t.a_f),
+            ("a_b", |t| t.a_b),
+            ("alpha_f", |t| t.alpha_f),
+            ("beta_f2", |t| t.beta_f2),
+            ("alpha_b", |t| t.alpha_b),
+            ("beta_b2", |t| t.beta_b2),
+            ("A_b", |t| t.big_a_b),
+            ("delta_b", |t| t.delta_b),
+            ("sigma_b2", |t| t.sigma_b2),
+        ];
+        for (name, get) in fields {
+            let flat: Vec<f64> = nodes.iter().flat_map(|t| get(t).map(f64::from)).collect();
+            let a = numpy::PyArray1::from_vec(py, flat).reshape([k, 3])?;
+            d.set_item(name, a)?;
+        }
+        Ok(d)
     }
 
     /// Solid-angle density of `sample`: one value per pair.

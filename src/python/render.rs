@@ -7,8 +7,8 @@
 use super::convert::{slice, to_numpy, without_gil};
 use super::models::{PyChiangHair, PyDEonHair, PyKarisHair};
 use crate::raster::scene::{
-    AlphaTexture, Camera, Cards, Environment, HairShading, Light, OpaqueTri, RenderOptions, Scene,
-    Sphere, Strands, Transparency,
+    AlphaTexture, Camera, Cards, Environment, HairShading, Light, MultipleScattering, OpaqueTri,
+    RenderOptions, Scene, Sphere, Strands, Transparency,
 };
 use crate::raster::shadow::ShadowModel;
 use glam::Vec3;
@@ -171,7 +171,18 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
     let (l0, l1) = RenderOptions::LAYERS;
     let (s0, s1) = RenderOptions::SHADOW_MAP_SIZE;
     let (p0, p1) = RenderOptions::PCF_RADIUS;
+    let (d0, d1) = RenderOptions::DENSITY_RESOLUTION;
     let transparency = r.choice("transparency", "mlab", &["mlab", "sorted"])?;
+    let multiple_scattering = match r.choice(
+        "multiple_scattering",
+        "auto",
+        &["auto", "none", "karis", "dual"],
+    )? {
+        "none" => Some(MultipleScattering::None),
+        "karis" => Some(MultipleScattering::Karis),
+        "dual" => Some(MultipleScattering::Dual),
+        _ => None,
+    };
     let layers = r.int("layers", 4, l0 as i64, l1 as i64)? as usize;
     let opts = RenderOptions {
         transparency: match transparency {
@@ -184,8 +195,14 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
             s0 as i64,
             s1 as i64,
         )? as u32,
-        shadow_model: match r.choice("shadow_model", "exponential", &["exponential", "opacity"])? {
+        shadow_model: match r.choice(
+            "shadow_model",
+            "exponential",
+            &["exponential", "opacity", "density", "traced"],
+        )? {
             "opacity" => ShadowModel::Opacity,
+            "density" => ShadowModel::Density,
+            "traced" => ShadowModel::Traced,
             _ => ShadowModel::Exponential,
         },
         shadow_density: r.num("shadow_density", def.shadow_density as f64, 0.0, f64::MAX)? as f32,
@@ -203,6 +220,21 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
             0.0,
             f64::MAX,
         )? as f32,
+        density_resolution: r.int(
+            "density_resolution",
+            def.density_resolution as i64,
+            d0 as i64,
+            d1 as i64,
+        )? as usize,
+        multiple_scattering,
+        dual_forward_density: r.num(
+            "dual_forward_density",
+            def.dual_forward_density as f64,
+            0.0,
+            1.0,
+        )? as f32,
+        dual_back_density: r.num("dual_back_density", def.dual_back_density as f64, 0.0, 1.0)?
+            as f32,
     };
     r.finish()?;
     Ok((opts, layers))
@@ -228,6 +260,8 @@ fn options_dict<'py>(
         match o.shadow_model {
             ShadowModel::Opacity => "opacity",
             ShadowModel::Exponential => "exponential",
+            ShadowModel::Density => "density",
+            ShadowModel::Traced => "traced",
         },
     )?;
     d.set_item("shadow_density", o.shadow_density as f64)?;
@@ -240,6 +274,18 @@ fn options_dict<'py>(
     d.set_item("skip_unused", o.skip_unused)?;
     d.set_item("reuse_shadow_maps", o.reuse_shadow_maps)?;
     d.set_item("light_cull_threshold", o.light_cull_threshold as f64)?;
+    d.set_item("density_resolution", o.density_resolution)?;
+    d.set_item(
+        "multiple_scattering",
+        match o.multiple_scattering {
+            None => "auto",
+            Some(MultipleScattering::None) => "none",
+            Some(MultipleScattering::Karis) => "karis",
+            Some(MultipleScattering::Dual) => "dual",
+        },
+    )?;
+    d.set_item("dual_forward_density", o.dual_forward_density as f64)?;
+    d.set_item("dual_back_density", o.dual_back_density as f64)?;
     Ok(d)
 }
 
@@ -482,6 +528,28 @@ pub fn render<'py>(
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let scene = build_scene(scene)?;
     let (opts, _) = read_options(options)?;
+    let ms = crate::raster::shade::multiple_scattering(&scene.hair, &opts);
+    match (&scene.hair, ms) {
+        (HairShading::Karis(_), MultipleScattering::Dual) => {
+            return Err(err(
+                "multiple_scattering",
+                "'dual' is not available for KarisHair yet (use 'karis' or 'none')",
+            ))
+        }
+        (HairShading::ChiangFar(_) | HairShading::DEon(_), MultipleScattering::Karis) => {
+            return Err(err(
+                "multiple_scattering",
+                "'karis' is KarisHair's own term; ChiangHair takes 'dual' or 'none', DEonHair 'none'",
+            ))
+        }
+        (HairShading::DEon(_), MultipleScattering::Dual) => {
+            return Err(err(
+                "multiple_scattering",
+                "'dual' is not available for DEonHair yet (use 'none')",
+            ))
+        }
+        _ => {}
+    }
     let total = crate::raster::tile_count(&scene);
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
     let result = std::thread::scope(|s| -> PyResult<_> {

@@ -245,6 +245,9 @@ mod tests {
                 tb: 1.0,
                 ca: Vec3::ZERO,
                 cb: Vec3::ZERO,
+                ra: 0.0,
+                rb: 0.0,
+                strand: 0,
             };
             let pad = s.pad();
             let span = RowSpan::new(&s, pad - 0.5);

@@ -30,12 +30,14 @@
 pub mod bin;
 pub mod coverage;
 pub mod cull;
+pub mod density;
 pub mod oit;
 pub mod scene;
 pub mod setup;
 pub mod shade;
 pub mod shadow;
 pub mod tile;
+pub mod traced;
 pub mod view;
 
 use crate::threads::pool;
@@ -128,7 +130,11 @@ pub fn render_with_progress(
 
     // 3. Segments, frustum culling, per-vertex shading.
     let t1 = std::time::Instant::now();
-    let shader = Shader::new(scene, &shadows, opts.skip_unused, opts.light_cull_threshold);
+    let counts = fiber_counts(scene, opts);
+    let traced = (opts.shadow_model == shadow::ShadowModel::Traced)
+        .then(|| traced::SegmentGrid::new(&world))
+        .flatten();
+    let shader = Shader::new(scene, &shadows, counts, traced, opts);
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();
@@ -242,6 +248,31 @@ fn shadow_maps(
     stats.shadow_maps_reused = built.iter().filter(|b| b.1).count();
     stats.shadow_maps_skipped = unneeded.iter().filter(|&&u| u).count();
     built.into_iter().map(|b| b.0).collect()
+}
+
+/// Per light, the fiber count towards it (the `density` shadow model: for
+/// every light that casts shadows).
+fn fiber_counts(scene: &Scene, opts: &RenderOptions) -> Vec<Option<density::FiberCount>> {
+    let dual = shade::multiple_scattering(&scene.hair, opts) == scene::MultipleScattering::Dual;
+    let wanted = |l: &scene::Light| {
+        (opts.shadow_model == shadow::ShadowModel::Density || dual)
+            && matches!(
+                l,
+                scene::Light::Directional { shadows: true, .. }
+                    | scene::Light::Point { shadows: true, .. }
+            )
+    };
+    if !scene.lights.iter().any(wanted) {
+        return vec![None; scene.lights.len()];
+    }
+    let Some(grid) = density::DensityGrid::new(scene, opts.density_resolution) else {
+        return vec![None; scene.lights.len()];
+    };
+    scene
+        .lights
+        .iter()
+        .map(|l| wanted(l).then(|| grid.fiber_count(l)))
+        .collect()
 }
 
 /// Which strand vertices the segments use (for per-vertex shading).

@@ -157,6 +157,17 @@ pub enum HairShading {
     DEon(Box<DEonHair<f32>>),
 }
 
+/// Light scattered between fibers (several fibers on its way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MultipleScattering {
+    /// Single scattering only.
+    None,
+    /// KarisHair's own term (its `MS` lobe: Karis 2016, UE4).
+    Karis,
+    /// Dual scattering through the fiber density grid ([`crate::fiber::dual`]).
+    Dual,
+}
+
 /// Order-independent transparency.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Transparency {
@@ -208,6 +219,16 @@ pub struct RenderOptions {
     /// (irradiance × the BSDF's upper bound) at a shading point is skipped
     /// (KarisHair; 0 = off). Changes pixels by at most this × lights.
     pub light_cull_threshold: f32,
+    /// Voxels along the longest side of the hair's bounding box in the
+    /// fiber density grid ([`super::density`]).
+    pub density_resolution: usize,
+    /// Multiple scattering; `None`: the model's default (KarisHair: its
+    /// own term, ChiangHair and DEonHair: none).
+    pub multiple_scattering: Option<MultipleScattering>,
+    /// Zinke's density factors d_f (forward-scattered light) and d_b
+    /// (local back scattering) of dual scattering.
+    pub dual_forward_density: f32,
+    pub dual_back_density: f32,
 }
 
 impl RenderOptions {
@@ -217,6 +238,8 @@ impl RenderOptions {
     pub const SHADOW_MAP_SIZE: (u32, u32) = (16, 8192);
     /// Inclusive range of the PCF radius.
     pub const PCF_RADIUS: (i32, i32) = (0, 8);
+    /// Inclusive range of the density grid's resolution.
+    pub const DENSITY_RESOLUTION: (usize, usize) = (8, 512);
     /// Largest image side.
     pub const MAX_RESOLUTION: u32 = 16384;
 }
@@ -237,6 +260,10 @@ impl Default for RenderOptions {
             skip_unused: true,
             reuse_shadow_maps: true,
             light_cull_threshold: 1e-4,
+            density_resolution: 128,
+            multiple_scattering: None,
+            dual_forward_density: 0.7,
+            dual_back_density: 0.7,
         }
     }
 }

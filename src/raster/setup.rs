@@ -33,6 +33,10 @@ pub struct Segment {
     /// Shaded radiance at the ends (per-vertex shading only).
     pub ca: Vec3,
     pub cb: Vec3,
+    /// World radii at the ends, and the strand.
+    pub ra: f32,
+    pub rb: f32,
+    pub strand: u32,
 }
 
 impl Segment {
@@ -52,6 +56,8 @@ pub struct WorldSegment {
     pub b: Vec3,
     pub ra: f32,
     pub rb: f32,
+    /// The strand it belongs to.
+    pub strand: u32,
 }
 
 /// A sphere bounding the whole scene: (centre, radius).
@@ -106,6 +112,7 @@ pub fn world_segments(st: &Strands) -> Vec<WorldSegment> {
                 b: st.points[i + 1],
                 ra: st.radii[i],
                 rb: st.radii[i + 1],
+                strand: s as u32,
             });
         }
     }
@@ -154,6 +161,9 @@ pub fn project_segments(st: &Strands, view: &View) -> Vec<Segment> {
                 tb,
                 ca: Vec3::ZERO,
                 cb: Vec3::ZERO,
+                ra,
+                rb,
+                strand: s as u32,
             });
         }
         out

@@ -4,8 +4,11 @@
 //! on its vector kernel in batches ([`Shader::shade_serial`]); the other
 //! models per point ([`Shader::shade`]).
 
-use super::scene::{HairShading, Scene};
-use super::shadow::ShadowMap;
+use super::density::FiberCount;
+use super::scene::{HairShading, MultipleScattering, RenderOptions, Scene};
+use super::shadow::{ShadowMap, NO_STRAND};
+use super::traced::SegmentGrid;
+use crate::fiber::dual::DualTable;
 use crate::fiber::karis::Transmittance;
 use crate::lighting::sh9_eval;
 use crate::threads::pool;
@@ -16,6 +19,34 @@ use std::sync::Arc;
 /// One shadow map per light (None: the light casts no shadow, or its map
 /// was skipped).
 pub type ShadowMaps = [Option<Arc<ShadowMap>>];
+
+/// The fiber a shading point lies on: its radius there (the point's
+/// distance to the fiber's surface) and its strand (whose own shadow the
+/// point does not see).
+#[derive(Debug, Clone, Copy)]
+pub struct Fiber {
+    pub radius: f32,
+    pub strand: u32,
+    /// The world segment the point lies on (or, at a vertex, one of the two).
+    pub segment: u32,
+}
+
+impl Fiber {
+    /// A point on no strand (cards).
+    pub const NONE: Fiber = Fiber {
+        radius: 0.0,
+        strand: NO_STRAND,
+        segment: 0,
+    };
+
+    /// Whether segment `segment` of strand `strand` is the fiber's own
+    /// stretch: its segment or a neighbour on the same strand (a shadow ray
+    /// leaves it; farther parts of the strand still cast shadows).
+    #[inline]
+    pub fn is_local(&self, strand: u32, segment: u32) -> bool {
+        self.strand != NO_STRAND && strand == self.strand && segment.abs_diff(self.segment) <= 1
+    }
+}
 
 /// Light-culling statistics gathered locally and added to the render's
 /// counters once per batch ([`Shader::flush`]).
@@ -33,6 +64,16 @@ pub struct Shader<'a> {
     /// The environment variant of a KarisHair model (when there is an environment).
     env_model: Option<crate::fiber::karis::KarisHair<f32>>,
     shadows: &'a ShadowMaps,
+    /// Per light, the fiber count towards it (shadow model `density`, and
+    /// dual scattering).
+    counts: Vec<Option<FiberCount>>,
+    /// Dual scattering: the material's tables and d_f (ChiangHair).
+    dual: Option<(Arc<DualTable>, f32)>,
+    /// Whether hair's own shadow comes from the fiber count (shadow model
+    /// `density`).
+    count_shadows: bool,
+    /// The strands for ray-traced shadows (shadow model `traced`).
+    traced: Option<SegmentGrid>,
     /// Upper bound of the hair BSDF's value over all directions (KarisHair;
     /// `None`: no light culling).
     f_max: Option<f32>,
@@ -58,11 +99,17 @@ impl<'a> Shader<'a> {
     pub fn new(
         scene: &'a Scene,
         shadows: &'a ShadowMaps,
-        skip_unused: bool,
-        cull_threshold: f32,
+        counts: Vec<Option<FiberCount>>,
+        traced: Option<SegmentGrid>,
+        opts: &RenderOptions,
     ) -> Self {
+        let (skip_unused, cull_threshold) = (opts.skip_unused, opts.light_cull_threshold);
+        let ms = multiple_scattering(&scene.hair, opts);
         let hair = match &scene.hair {
-            HairShading::Karis(k) if skip_unused && k.scatter_is_zero() && k.components().ms => {
+            HairShading::Karis(k)
+                if k.components().ms
+                    && (ms == MultipleScattering::None || skip_unused && k.scatter_is_zero()) =>
+            {
                 let mut c = k.components();
                 c.ms = false;
                 HairShading::Karis(k.with_components(c))
@@ -77,11 +124,21 @@ impl<'a> Shader<'a> {
             HairShading::Karis(k) if cull_threshold > 0.0 => Some(k.upper_bound()),
             _ => None,
         };
+        let dual = match (&hair, ms) {
+            (HairShading::ChiangFar(c), MultipleScattering::Dual) => {
+                Some((c.dual(opts.dual_back_density), opts.dual_forward_density))
+            }
+            _ => None,
+        };
         Self {
             scene,
             hair,
             env_model,
             shadows,
+            counts,
+            dual,
+            count_shadows: opts.shadow_model == super::shadow::ShadowModel::Density,
+            traced,
             f_max,
             cull_threshold,
             culled: Default::default(),
@@ -101,6 +158,7 @@ impl<'a> Shader<'a> {
         &self,
         points: &[Vec3],
         tangent: &(dyn Fn(usize) -> Vec3 + Sync),
+        fiber: &(dyn Fn(usize) -> Fiber + Sync),
         eye: Vec3,
     ) -> Option<Vec<Vec3>> {
         if !self.batches() {
@@ -112,7 +170,8 @@ impl<'a> Shader<'a> {
             out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| {
                 let range = c * CHUNK..c * CHUNK + o.len();
                 let t: Vec<Vec3> = range.clone().map(tangent).collect();
-                self.shade_serial(&points[range], &t, eye, o);
+                let f: Vec<Fiber> = range.clone().map(fiber).collect();
+                self.shade_serial(&points[range], &t, &f, eye, o);
             })
         });
         Some(out)
@@ -123,7 +182,14 @@ impl<'a> Shader<'a> {
     /// irradiance and shadow-map visibility per point, then one call of the
     /// vector kernel over all points; the environment likewise. Equal to
     /// `shade` up to the vector kernel's rounding.
-    pub fn shade_serial(&self, points: &[Vec3], tangents: &[Vec3], eye: Vec3, out: &mut [Vec3]) {
+    pub fn shade_serial(
+        &self,
+        points: &[Vec3],
+        tangents: &[Vec3],
+        fibers: &[Fiber],
+        eye: Vec3,
+        out: &mut [Vec3],
+    ) {
         use crate::fiber::karis::simd::eval_range;
         use crate::fiber::karis::KarisInputs;
         let HairShading::Karis(k) = &self.hair else {
@@ -142,7 +208,7 @@ impl<'a> Shader<'a> {
         let mut l = vec![0.0f32; 3 * n];
         let mut shadow = vec![0.0f32; n];
         let mut irradiance = vec![Vec3::ZERO; n];
-        for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
+        for (index, (light, sm)) in self.scene.lights.iter().zip(self.shadows).enumerate() {
             // per point: direction, irradiance, visibility (0 where culled)
             for (i, p) in points.iter().enumerate() {
                 let (li, e) = light.incident(*p);
@@ -150,7 +216,8 @@ impl<'a> Shader<'a> {
                 (irradiance[i], shadow[i]) = if self.culls(e, &mut tally) {
                     (Vec3::ZERO, 0.0)
                 } else {
-                    (e, sm.as_ref().map_or(1.0, |m| m.visibility(*p)))
+                    let (ti, vi) = (tangents[i], Vec3::from_slice(&v[3 * i..]));
+                    (e, self.hair_visibility(index, sm, *p, ti, vi, fibers[i]))
                 };
             }
             // The kernel runs on the points the light reaches (culled and
@@ -241,6 +308,80 @@ impl<'a> Shader<'a> {
         }
     }
 
+    /// Visibility of light `li` (shadow map `sm`) at hair point `p` on
+    /// `fiber` with tangent `t`, seen from `v`: the shadow map's at the
+    /// fiber's surface point facing the viewer (not its own strand's
+    /// shadow), times e^-n for the fibers crossed on the way when the light
+    /// has a fiber count.
+    #[inline]
+    fn hair_visibility(
+        &self,
+        li: usize,
+        sm: &Option<Arc<ShadowMap>>,
+        p: Vec3,
+        t: Vec3,
+        v: Vec3,
+        fiber: Fiber,
+    ) -> f32 {
+        let facing = (v - t * t.dot(v)).normalize_or_zero();
+        let q = p + facing * fiber.radius;
+        let vis = sm
+            .as_ref()
+            .map_or(1.0, |m| m.visibility_fiber(p, q, &fiber));
+        if let Some(grid) = &self.traced {
+            if vis > 0.0 && sm.is_some() {
+                let (l, _) = self.scene.lights[li].incident(q);
+                let t_max = match self.scene.lights[li] {
+                    super::scene::Light::Point { position, .. } => (position - q).length(),
+                    _ => f32::INFINITY,
+                };
+                if grid.occluded(q, l, t_max, &fiber) {
+                    return 0.0;
+                }
+            }
+        }
+        match self.counts.get(li).and_then(Option::as_ref) {
+            Some(c) if vis > 0.0 && self.count_shadows => vis * (-c.at(p).0).exp(),
+            _ => vis,
+        }
+    }
+
+    /// The fraction of light `li` that reaches an opaque surface point `p`
+    /// through the hair (RGB), where the shadow map does not hold hair:
+    /// with the `traced` shadow model 0 or 1 by a ray; with the `density`
+    /// model from the fiber count, under dual scattering all the light the
+    /// fibers pass on, scattered or not (`e^{-n(1 - a_f)}`, a_f at normal
+    /// incidence: a diffuse surface does not see the spread), otherwise the
+    /// unscattered part `e^{-n}`. Other models: 1 (the map holds hair).
+    pub fn hair_transmittance(&self, li: usize, p: Vec3) -> Vec3 {
+        if let Some(grid) = &self.traced {
+            let (l, _) = self.scene.lights[li].incident(p);
+            let t_max = match self.scene.lights[li] {
+                super::scene::Light::Point { position, .. } => (position - p).length(),
+                _ => f32::INFINITY,
+            };
+            return if grid.occluded(p, l, t_max, &Fiber::NONE) {
+                Vec3::ZERO
+            } else {
+                Vec3::ONE
+            };
+        }
+        let Some(count) = self.counts.get(li).and_then(Option::as_ref) else {
+            return Vec3::ONE;
+        };
+        if !self.count_shadows {
+            return Vec3::ONE;
+        }
+        let (n, _) = count.at(p);
+        match &self.dual {
+            Some((dual, _)) => {
+                let a_f = Vec3::from(dual.terms(0.0).a_f);
+                (-(Vec3::ONE - a_f) * n).exp()
+            }
+            None => Vec3::splat((-n).exp()),
+        }
+    }
+
     /// Light evaluations skipped so far, and the largest skipped bound.
     pub fn light_cull_stats(&self) -> (u64, f32) {
         use std::sync::atomic::Ordering::Relaxed;
@@ -251,15 +392,22 @@ impl<'a> Shader<'a> {
     }
 
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
-    pub fn shade(&self, p: Vec3, t: Vec3, v: Vec3) -> Vec3 {
+    pub fn shade(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
         let mut out = Vec3::ZERO;
         let mut tally = CullTally::default();
-        for (light, sm) in self.scene.lights.iter().zip(self.shadows) {
+        for (li, (light, sm)) in self.scene.lights.iter().zip(self.shadows).enumerate() {
             let (l, e) = light.incident(p);
             if self.culls(e, &mut tally) {
                 continue;
             }
-            let vis = sm.as_ref().map_or(1.0, |m| m.visibility(p));
+            let vis = self.hair_visibility(li, sm, p, t, v, fiber);
+            if let (Some((dual, d_f)), HairShading::ChiangFar(c)) = (&self.dual, &self.hair) {
+                let (n, clear) = self.counts[li].as_ref().map_or((0.0, 1.0), |c| c.at(p));
+                let g = FiberAngles::new(t, v, l);
+                let f = dual.shade_chiang(c, g.view, g.light, g.phi, vis, n, clear, *d_f);
+                out += Vec3::from(f) * e;
+                continue;
+            }
             if vis <= 0.0 {
                 continue;
             }
@@ -312,6 +460,16 @@ impl crate::fiber::karis::LobeVisitor<f32> for EnvOne<'_> {
     }
 }
 
+/// The multiple scattering a render uses: the option, or the model's
+/// default (KarisHair: its own term; ChiangHair and DEonHair: none, until
+/// dual scattering meets its accuracy goals: see `docs/dense_hair.md`).
+pub fn multiple_scattering(hair: &HairShading, opts: &RenderOptions) -> MultipleScattering {
+    opts.multiple_scattering.unwrap_or(match hair {
+        HairShading::Karis(_) => MultipleScattering::Karis,
+        HairShading::ChiangFar(_) | HairShading::DEon(_) => MultipleScattering::None,
+    })
+}
+
 /// The angles a far-field fiber model depends on, for tangent `t`, view
 /// `v` and light `l` (unit vectors): (sin θ, cos θ) of the view and of the
 /// light (θ from the normal plane, cos θ ≥ 0), and the azimuth between
@@ -339,16 +497,10 @@ impl FiberAngles {
 /// Diffuse radiance of an opaque surface point. Light culling (`cull` > 0):
 /// a light with `irradiance/π` below `cull` is skipped (albedo ≤ 1, so its
 /// contribution is below `cull`).
-pub fn shade_diffuse(
-    scene: &Scene,
-    shadows: &ShadowMaps,
-    p: Vec3,
-    n: Vec3,
-    albedo: Vec3,
-    cull: f32,
-) -> Vec3 {
+pub fn shade_diffuse(shader: &Shader, p: Vec3, n: Vec3, albedo: Vec3) -> Vec3 {
+    let (scene, shadows, cull) = (shader.scene, shader.shadows, shader.diffuse_cull());
     let mut e_total = Vec3::ZERO;
-    for (light, sm) in scene.lights.iter().zip(shadows) {
+    for (li, (light, sm)) in scene.lights.iter().zip(shadows).enumerate() {
         let (l, e) = light.incident(p);
         let c = n.dot(l);
         if c <= 0.0 || e.max_element() * std::f32::consts::FRAC_1_PI < cull {
@@ -357,7 +509,7 @@ pub fn shade_diffuse(
         let vis = sm
             .as_ref()
             .map_or(1.0, |m| m.visibility(p + n * 1e-4 * m.scale()));
-        e_total += e * c * vis;
+        e_total += e * c * vis * shader.hair_transmittance(li, p);
     }
     if let Some(env) = &scene.environment {
         // Irradiance of band-limited SH radiance: convolution with the
@@ -396,6 +548,11 @@ pub fn shade_vertices(
         let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
         (b - a).normalize_or_zero()
     };
+    let fiber = |i: usize| Fiber {
+        radius: st.radii[i],
+        strand: owner[i] as u32,
+        segment: (i - owner[i]) as u32,
+    };
     // The vertices to shade, as indices into the strands' points.
     let index: Vec<usize> = match needed {
         Some(m) => (0..st.points.len()).filter(|&i| m[i]).collect(),
@@ -403,14 +560,14 @@ pub fn shade_vertices(
     };
     let points: Vec<Vec3> = index.iter().map(|&i| st.points[i]).collect();
     let shaded = shader
-        .shade_batch(&points, &|j| tangent(index[j]), eye)
+        .shade_batch(&points, &|j| tangent(index[j]), &|j| fiber(index[j]), eye)
         .unwrap_or_else(|| {
             pool().install(|| {
                 index
                     .par_iter()
                     .map(|&i| {
                         let p = st.points[i];
-                        shader.shade(p, tangent(i), (eye - p).normalize_or_zero())
+                        shader.shade(p, tangent(i), (eye - p).normalize_or_zero(), fiber(i))
                     })
                     .collect()
             })
@@ -506,7 +663,11 @@ mod tests {
             .iter()
             .map(|l| ShadowMap::build(l, &scene, &world, bounds, &opts).map(Arc::new))
             .collect();
-        let shader = Shader::new(&scene, &shadows, true, 0.0);
+        let opts = RenderOptions {
+            light_cull_threshold: 0.0,
+            ..Default::default()
+        };
+        let shader = Shader::new(&scene, &shadows, vec![None; 2], None, &opts);
         let eye = scene.camera.position;
         let batched = shade_vertices(&scene, &shader, eye, None);
         let st = &scene.strands;
@@ -524,10 +685,16 @@ mod tests {
             for i in i0..i1 {
                 let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
                 let p = st.points[i];
+                let fiber = Fiber {
+                    radius: st.radii[i],
+                    strand: s as u32,
+                    segment: (i - s) as u32,
+                };
                 let want = shader.shade(
                     p,
                     (b - a).normalize_or_zero(),
                     (eye - p).normalize_or_zero(),
+                    fiber,
                 );
                 let got = batched[i];
                 for c in 0..3 {

@@ -30,19 +30,54 @@ pub struct ShadowMap {
     bias: f32,
     scale: f32,
     model: ShadowModel,
-    /// Optical depth per texel and slab (Opacity model).
+    /// Optical depth per texel and slab (Opacity model), of the deposits
+    /// behind the texel's first `LAYERS` fibers.
     slabs: Vec<f32>,
+    /// The nearest `LAYERS` deposits per texel, sorted by depth (Opacity
+    /// model).
+    layers: Vec<Deposit>,
     slab_width: f32,
 }
 
 /// Depth slabs of the opacity model.
-pub const SLABS: usize = 8;
+pub const SLABS: usize = 12;
+/// Deposits kept exactly per texel (opacity model).
+pub const LAYERS: usize = 4;
+
+/// The strand of a card deposit, and of a receiver that is not on a strand.
+pub const NO_STRAND: u32 = u32::MAX;
+
+/// One fiber's optical depth in a texel, at its depth along the light.
+#[derive(Debug, Clone, Copy)]
+struct Deposit {
+    depth: f32,
+    tau: f32,
+    strand: u32,
+    /// The world segment of the strand that is nearest the light here.
+    segment: u32,
+}
+
+impl Deposit {
+    const EMPTY: Deposit = Deposit {
+        depth: f32::INFINITY,
+        tau: 0.0,
+        strand: NO_STRAND,
+        segment: 0,
+    };
+}
+const SLAB_GROWTH: f32 = 2.0;
 
 /// How hair attenuates light in shadow maps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ShadowModel {
     Opacity,
     Exponential,
+    /// Opaque geometry only: hair's shadowing comes from the fiber density
+    /// grid ([`super::density`]).
+    Density,
+    /// Opaque geometry only: hair's shadowing is ray traced through the
+    /// strands ([`super::traced`]); exact and slow, a reference.
+    Traced,
 }
 
 /// The light's view: an origin (the eye of a point light) and basis, and
@@ -179,18 +214,30 @@ impl ShadowMap {
             scale: radius,
             model: opts.shadow_model,
             slabs: Vec::new(),
-            slab_width: 2.0 * radius / SLABS as f32,
+            layers: Vec::new(),
+            slab_width: 0.5 * texel,
         };
-        m.draw_hair(segments);
-        m.draw_cards(scene, false);
+        if !matches!(m.model, ShadowModel::Density | ShadowModel::Traced) {
+            m.draw_hair(segments);
+            m.draw_cards(scene, false);
+        }
         if m.model == ShadowModel::Opacity {
             m.slabs = vec![0.0; (n * n) as usize * SLABS];
+            m.layers = vec![Deposit::EMPTY; (n * n) as usize * LAYERS];
             m.accumulate_hair(segments);
             m.draw_cards(scene, true);
         }
         m.draw_spheres(scene);
         m.draw_triangles(scene);
         Some(m)
+    }
+
+    /// Continuous slab position of a depth `d` ≥ 0 behind the first hair:
+    /// slab k spans [w0 (g^k − 1)/(g − 1), w0 (g^{k+1} − 1)/(g − 1)).
+    #[inline]
+    fn slab_coord(&self, d: f32) -> f32 {
+        let (w0, g) = (self.slab_width, SLAB_GROWTH);
+        (1.0 + d.max(0.0) * (g - 1.0) / w0).ln() / g.ln()
     }
 
     /// The scene radius the map was built for (for offsets).
@@ -240,7 +287,7 @@ impl ShadowMap {
 
     fn draw_hair_into(&self, segments: &[WorldSegment], hair: &mut [f32]) {
         let n = self.size as f32;
-        for &WorldSegment { a, b, ra, rb } in segments {
+        for &WorldSegment { a, b, ra, rb, .. } in segments {
             let (Some(pa), Some(pb)) = (self.proj.map(a), self.proj.map(b)) else {
                 continue;
             };
@@ -297,7 +344,7 @@ impl ShadowMap {
             let mut texels = Vec::new();
             self.card_texels(scene, 0..quads, |i, z, alpha| texels.push((i, z, alpha)));
             for (i, z, alpha) in texels {
-                self.add_optical_depth(i, z, alpha);
+                self.add_optical_depth(i, z, alpha, NO_STRAND, 0);
             }
             return;
         }
@@ -353,63 +400,112 @@ impl ShadowMap {
     }
 
     #[inline]
-    fn add_optical_depth(&mut self, texel: usize, z: f32, alpha: f32) {
+    fn add_optical_depth(&mut self, texel: usize, z: f32, alpha: f32, strand: u32, segment: u32) {
         if !(alpha > 0.0) || !self.hair[texel].is_finite() {
             return;
         }
-        let k = (((z - self.hair[texel]) / self.slab_width).max(0.0) as usize).min(SLABS - 1);
-        self.slabs[texel * SLABS + k] += -(1.0 - alpha.min(0.95)).ln();
+        let mut d = Deposit {
+            depth: z,
+            tau: -(1.0 - alpha.min(0.95)).ln(),
+            strand,
+            segment,
+        };
+        // Insert among the texel's nearest deposits; the deepest of them
+        // (or this one) goes to the slabs.
+        let layers = &mut self.layers[texel * LAYERS..(texel + 1) * LAYERS];
+        for slot in layers.iter_mut() {
+            if d.depth < slot.depth {
+                std::mem::swap(slot, &mut d);
+            }
+        }
+        if !d.depth.is_finite() {
+            return;
+        }
+        let k = (self.slab_coord(d.depth - self.hair[texel]) as usize).min(SLABS - 1);
+        self.slabs[texel * SLABS + k] += d.tau;
     }
 
     /// Strands' optical depth: each segment visits the texels of its
     /// bounding box once, with the same tent coverage as the screen
-    /// rasterizer (strands thinner than a texel scale their coverage).
+    /// rasterizer (strands thinner than a texel scale their coverage). A
+    /// strand covers a texel once: where several of its segments reach the
+    /// same texel (at joints, or along a strand running towards the light)
+    /// the deposit takes the nearest depth and the largest coverage (a ray
+    /// through the texel meets the fiber once).
     fn accumulate_hair(&mut self, segments: &[WorldSegment]) {
+        let mut merged: std::collections::HashMap<usize, (f32, f32, u32)> = Default::default();
+        let mut start = 0;
+        while start < segments.len() {
+            let strand = segments[start].strand;
+            let end = start
+                + segments[start..]
+                    .iter()
+                    .take_while(|s| s.strand == strand)
+                    .count();
+            merged.clear();
+            for (i, seg) in segments[start..end].iter().enumerate() {
+                let index = (start + i) as u32;
+                self.segment_texels(seg, |texel, z, cov| {
+                    let e = merged.entry(texel).or_insert((z, cov, index));
+                    if z < e.0 {
+                        (e.0, e.2) = (z, index);
+                    }
+                    e.1 = e.1.max(cov);
+                });
+            }
+            let mut texels: Vec<(usize, (f32, f32, u32))> = merged.drain().collect();
+            texels.sort_unstable_by_key(|e| e.0);
+            for (texel, (z, cov, segment)) in texels {
+                self.add_optical_depth(texel, z, cov, strand, segment);
+            }
+            start = end;
+        }
+    }
+
+    /// Calls `emit(texel, depth, coverage)` for every texel a segment covers.
+    fn segment_texels(&self, seg: &WorldSegment, mut emit: impl FnMut(usize, f32, f32)) {
         let n = self.size as f32;
-        for &WorldSegment { a, b, ra, rb } in segments {
-            let (Some(pa), Some(pb)) = (self.proj.map(a), self.proj.map(b)) else {
-                continue;
-            };
-            let (ax, ay, bx, by) = (pa.0 * n, pa.1 * n, pb.0 * n, pb.1 * n);
-            let texels_per_unit = |z: f32| match self.proj.kind {
-                Projection::Ortho { half } => 0.5 * n / half,
-                Projection::Persp { tan_half } => 0.5 * n / (z.max(1e-6) * tan_half),
-            };
-            let (wa, wb) = (
-                2.0 * ra * texels_per_unit(pa.2),
-                2.0 * rb * texels_per_unit(pb.2),
-            );
-            let pad = 0.5 * wa.max(wb).max(1.0) + 1.0;
-            let x0 = ((ax.min(bx) - pad).floor().max(0.0)) as i64;
-            let x1 = ((ax.max(bx) + pad).ceil() as i64).min(self.size as i64 - 1);
-            let y0 = ((ay.min(by) - pad).floor().max(0.0)) as i64;
-            let y1 = ((ay.max(by) + pad).ceil() as i64).min(self.size as i64 - 1);
-            let (dx, dy) = (bx - ax, by - ay);
-            let len2 = dx * dx + dy * dy;
-            for yi in y0..=y1 {
-                for xi in x0..=x1 {
-                    let (px, py) = (xi as f32 + 0.5, yi as f32 + 0.5);
-                    let t = if len2 > 0.0 {
-                        (((px - ax) * dx + (py - ay) * dy) / len2).clamp(0.0, 1.0)
-                    } else {
-                        0.0
-                    };
-                    let dist = ((px - ax - t * dx).powi(2) + (py - ay - t * dy).powi(2)).sqrt();
-                    let mut w = wa + (wb - wa) * t;
-                    let mut scale = 1.0;
-                    if w < 1.0 {
-                        scale = w.max(0.0);
-                        w = 1.0;
-                    }
-                    let cov = (0.5 * w + 0.5 - dist).clamp(0.0, 1.0) * scale;
-                    if cov > 0.0 {
-                        let z = pa.2 + (pb.2 - pa.2) * t;
-                        self.add_optical_depth(
-                            (yi as u32 * self.size + xi as u32) as usize,
-                            z,
-                            cov,
-                        );
-                    }
+        let (Some(pa), Some(pb)) = (self.proj.map(seg.a), self.proj.map(seg.b)) else {
+            return;
+        };
+        let (ax, ay, bx, by) = (pa.0 * n, pa.1 * n, pb.0 * n, pb.1 * n);
+        let texels_per_unit = |z: f32| match self.proj.kind {
+            Projection::Ortho { half } => 0.5 * n / half,
+            Projection::Persp { tan_half } => 0.5 * n / (z.max(1e-6) * tan_half),
+        };
+        let (wa, wb) = (
+            2.0 * seg.ra * texels_per_unit(pa.2),
+            2.0 * seg.rb * texels_per_unit(pb.2),
+        );
+        let pad = 0.5 * wa.max(wb).max(1.0) + 1.0;
+        let x0 = ((ax.min(bx) - pad).floor().max(0.0)) as i64;
+        let x1 = ((ax.max(bx) + pad).ceil() as i64).min(self.size as i64 - 1);
+        let y0 = ((ay.min(by) - pad).floor().max(0.0)) as i64;
+        let y1 = ((ay.max(by) + pad).ceil() as i64).min(self.size as i64 - 1);
+        let (dx, dy) = (bx - ax, by - ay);
+        let len2 = dx * dx + dy * dy;
+        for yi in y0..=y1 {
+            for xi in x0..=x1 {
+                let (px, py) = (xi as f32 + 0.5, yi as f32 + 0.5);
+                let t = if len2 > 0.0 {
+                    (((px - ax) * dx + (py - ay) * dy) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let dist = ((px - ax - t * dx).powi(2) + (py - ay - t * dy).powi(2)).sqrt();
+                let mut w = wa + (wb - wa) * t;
+                let mut scale = 1.0;
+                if w < 1.0 {
+                    scale = w.max(0.0);
+                    w = 1.0;
+                }
+                let cov = (0.5 * w + 0.5 - dist).clamp(0.0, 1.0) * scale;
+                if cov > 0.0 {
+                    emit(
+                        (yi as u32 * self.size + xi as u32) as usize,
+                        pa.2 + (pb.2 - pa.2) * t,
+                        cov,
+                    );
                 }
             }
         }
@@ -465,15 +561,72 @@ impl ShadowMap {
         }
     }
 
-    /// Light visibility at `p` in [0, 1].
+    /// Light visibility of the surface point `q` of a fiber of strand
+    /// `strand` whose centre line is at `p`. Opacity model: the deposits
+    /// of the texels around `q` in front of `q`, except the strand's own,
+    /// PCF-filtered; a receiver on no strand ([`NO_STRAND`]: cards, opaque
+    /// surfaces) counts deposits more than the depth bias in front. The
+    /// other models: [`Self::visibility`] at `p`.
+    pub fn visibility_fiber(&self, p: Vec3, q: Vec3, fiber: &super::shade::Fiber) -> f32 {
+        if self.model != ShadowModel::Opacity {
+            return self.visibility(p);
+        }
+        let Some((u, v, zq)) = self.proj.map(q) else {
+            return 1.0;
+        };
+        let front = if fiber.strand == NO_STRAND {
+            zq - self.bias
+        } else {
+            zq
+        };
+        self.pcf(u, v, zq, |idx| {
+            let mut tau = 0.0;
+            for d in &self.layers[idx * LAYERS..(idx + 1) * LAYERS] {
+                if d.depth < front && !fiber.is_local(d.strand, d.segment) {
+                    tau += d.tau;
+                }
+            }
+            let behind = front - self.hair[idx];
+            if behind > 0.0 {
+                let s = self.slab_coord(behind);
+                let k = s as usize;
+                let slabs = &self.slabs[idx * SLABS..idx * SLABS + SLABS];
+                tau += slabs[..k.min(SLABS)].iter().sum::<f32>();
+                if k < SLABS {
+                    tau += (s - k as f32) * slabs[k];
+                }
+            }
+            (-tau).exp()
+        })
+    }
+
+    /// Light visibility at `p` in [0, 1] (a point on no strand).
     pub fn visibility(&self, p: Vec3) -> f32 {
+        if self.model == ShadowModel::Opacity {
+            return self.visibility_fiber(p, p, &super::shade::Fiber::NONE);
+        }
         let Some((u, v, z)) = self.proj.map(p) else {
             return 1.0;
         };
+        self.pcf(u, v, z, |idx| {
+            // Exponential model (the density model draws no hair: the
+            // first-hair depth is infinite).
+            let behind = z - self.hair[idx] - self.bias;
+            if behind > 0.0 {
+                (-self.density * behind).exp()
+            } else {
+                1.0
+            }
+        })
+    }
+
+    /// The mean over the PCF taps around texel (u, v) of `tap(texel)`:
+    /// 1 outside the map, 0 behind opaque geometry at depth `z`.
+    #[inline]
+    fn pcf(&self, u: f32, v: f32, z: f32, tap: impl Fn(usize) -> f32) -> f32 {
         let n = self.size as i32;
         let (x, y) = ((u * n as f32) as i32, (v * n as f32) as i32);
-        let mut sum = 0.0;
-        let mut count = 0.0;
+        let (mut sum, mut count) = (0.0, 0.0);
         for dy in -self.pcf..=self.pcf {
             for dx in -self.pcf..=self.pcf {
                 let (xi, yi) = (x + dx, y + dy);
@@ -486,21 +639,7 @@ impl ShadowMap {
                 if z > self.opaque[idx] + self.bias {
                     continue;
                 }
-                let behind = z - self.hair[idx] - self.bias;
-                sum += if !(behind > 0.0) {
-                    1.0
-                } else if self.model == ShadowModel::Exponential {
-                    (-self.density * behind).exp()
-                } else {
-                    let s = behind / self.slab_width;
-                    let k = s as usize;
-                    let slabs = &self.slabs[idx * SLABS..idx * SLABS + SLABS];
-                    let mut tau: f32 = slabs[..k.min(SLABS)].iter().sum();
-                    if k < SLABS {
-                        tau += (s - k as f32) * slabs[k];
-                    }
-                    (-tau).exp()
-                };
+                sum += tap(idx);
             }
         }
         sum / count
@@ -511,8 +650,10 @@ impl ShadowMap {
 /// changed (the geometry, the light, the shadow settings): a camera move
 /// re-renders with the maps of the previous frame. Holds at most
 /// [`CACHE_MAPS`] maps (least recently used dropped first); each costs
-/// `2 · size²` floats (plus `SLABS · size²` with the opacity model): 8 MiB
-/// at the default 1024², so the cache holds at most 32 MiB by default.
+/// `2 · size²` floats (plus `SLABS · size²` floats and `LAYERS · size²`
+/// 16-byte deposits with the opacity model): 8 MiB at the default 1024²
+/// (112 MiB with the opacity model), so the cache holds at most 32 MiB by
+/// default (448 MiB with opacity maps).
 pub const CACHE_MAPS: usize = 4;
 
 type CacheEntry = (u64, std::sync::Arc<ShadowMap>);

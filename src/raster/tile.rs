@@ -11,7 +11,7 @@ use super::cull::BehindOpaque;
 use super::oit::Layers;
 use super::scene::{RenderOptions, Scene, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
-use super::shade::{shade_diffuse, Shader, ShadowMaps};
+use super::shade::{shade_diffuse, Fiber, Shader, ShadowMaps};
 use super::view::View;
 use crate::lighting::sh9_eval;
 use glam::Vec3;
@@ -156,14 +156,8 @@ impl<'a> Tile<'a> {
                         if depth < self.opaque_depth[k] && depth > view.near {
                             self.opaque_depth[k] = depth;
                             let hit = view.eye + ray * t;
-                            self.base[k] = shade_diffuse(
-                                scene,
-                                self.ctx.shadows,
-                                hit,
-                                (hit - s.center) / s.radius,
-                                s.albedo,
-                                self.ctx.shader.diffuse_cull(),
-                            );
+                            let n = (hit - s.center) / s.radius;
+                            self.base[k] = shade_diffuse(self.ctx.shader, hit, n, s.albedo);
                         }
                     }
                 }
@@ -190,14 +184,7 @@ impl<'a> Tile<'a> {
                 } else {
                     t.normal
                 };
-                self.base[k] = shade_diffuse(
-                    self.ctx.scene,
-                    self.ctx.shadows,
-                    pw,
-                    n,
-                    t.albedo,
-                    self.ctx.shader.diffuse_cull(),
-                );
+                self.base[k] = shade_diffuse(self.ctx.shader, pw, n, t.albedo);
             }
         }
     }
@@ -206,6 +193,7 @@ impl<'a> Tile<'a> {
     /// batch (`deferred`); `color` is the interpolated per-vertex radiance
     /// when there is one.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn hair_fragment(
         &mut self,
         k: usize,
@@ -213,17 +201,18 @@ impl<'a> Tile<'a> {
         alpha: f32,
         p: Vec3,
         t: Vec3,
+        fiber: Fiber,
         color: Option<Vec3>,
     ) {
         self.fragments += 1;
         if self.deferred {
-            self.pending.push(k, depth, alpha, p, t);
+            self.pending.push(k, depth, alpha, p, t, fiber);
             return;
         }
         let c = color.unwrap_or_else(|| {
             self.ctx
                 .shader
-                .shade(p, t, (self.ctx.view.eye - p).normalize_or_zero())
+                .shade(p, t, (self.ctx.view.eye - p).normalize_or_zero(), fiber)
         });
         self.layers.add(k, depth, c, alpha);
     }
@@ -269,7 +258,12 @@ impl<'a> Tile<'a> {
                     let tw_ = (t / s.zb) / inv;
                     let pw = s.pa + (s.pb - s.pa) * tw_;
                     let color = opts.vertex_shading.then(|| s.ca + (s.cb - s.ca) * tw_);
-                    self.hair_fragment(k, depth, cov, pw, tangent, color);
+                    let fiber = Fiber {
+                        radius: s.ra + (s.rb - s.ra) * tw_,
+                        strand: s.strand,
+                        segment: s.i - s.strand,
+                    };
+                    self.hair_fragment(k, depth, cov, pw, tangent, fiber, color);
                 }
             }
         }
@@ -299,7 +293,7 @@ impl<'a> Tile<'a> {
                     continue;
                 }
                 let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
-                self.hair_fragment(k, depth, alpha, pw, t.tangent, None);
+                self.hair_fragment(k, depth, alpha, pw, t.tangent, Fiber::NONE, None);
             }
         }
     }
@@ -314,7 +308,7 @@ impl<'a> Tile<'a> {
         let mut colors = vec![Vec3::ZERO; p.k.len()];
         self.ctx
             .shader
-            .shade_serial(&p.p, &p.t, self.ctx.view.eye, &mut colors);
+            .shade_serial(&p.p, &p.t, &p.fiber, self.ctx.view.eye, &mut colors);
         for (i, c) in colors.into_iter().enumerate() {
             self.layers.add(p.k[i] as usize, p.depth[i], c, p.alpha[i]);
         }
@@ -343,7 +337,7 @@ impl<'a> Tile<'a> {
 }
 
 /// Hair fragments of a tile awaiting shading: pixel, depth, coverage
-/// (alpha), world position, tangent.
+/// (alpha), world position, tangent, fiber.
 #[derive(Default)]
 struct Pending {
     k: Vec<u32>,
@@ -351,15 +345,18 @@ struct Pending {
     alpha: Vec<f32>,
     p: Vec<Vec3>,
     t: Vec<Vec3>,
+    fiber: Vec<Fiber>,
 }
 
 impl Pending {
     #[inline]
-    fn push(&mut self, k: usize, depth: f32, alpha: f32, p: Vec3, t: Vec3) {
+    #[allow(clippy::too_many_arguments)]
+    fn push(&mut self, k: usize, depth: f32, alpha: f32, p: Vec3, t: Vec3, fiber: Fiber) {
         self.k.push(k as u32);
         self.depth.push(depth);
         self.alpha.push(alpha);
         self.p.push(p);
         self.t.push(t);
+        self.fiber.push(fiber);
     }
 }

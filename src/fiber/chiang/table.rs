@@ -62,7 +62,7 @@ impl TableSize {
 const NODE: usize = 3 * 3;
 
 /// The far field of one [`ChiangHair`] from tables (see the module docs).
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct ChiangFarTable {
     /// The model: longitudinal terms.
     model: ChiangHair<f32>,
@@ -71,6 +71,20 @@ pub struct ChiangFarTable {
     n: Vec<f32>,
     /// Ā_3 per cos θi node.
     a3: Vec<[f32; 3]>,
+    /// The dual-scattering tables, built on first use, with their d_b.
+    dual: std::sync::Mutex<Option<(f32, std::sync::Arc<crate::fiber::dual::DualTable>)>>,
+}
+
+impl Clone for ChiangFarTable {
+    fn clone(&self) -> Self {
+        Self {
+            model: self.model.clone(),
+            size: self.size,
+            n: self.n.clone(),
+            a3: self.a3.clone(),
+            dual: std::sync::Mutex::new(self.dual.lock().map(|d| d.clone()).unwrap_or(None)),
+        }
+    }
 }
 
 impl ChiangFarTable {
@@ -100,6 +114,21 @@ impl ChiangFarTable {
             size,
             n,
             a3,
+            dual: std::sync::Mutex::new(None),
+        }
+    }
+
+    /// The material's dual-scattering tables for back density `d_b`
+    /// (built from this table on first use, ~10-50 ms, then kept).
+    pub fn dual(&self, d_b: f32) -> std::sync::Arc<crate::fiber::dual::DualTable> {
+        let mut held = self.dual.lock().unwrap_or_else(|e| e.into_inner());
+        match &*held {
+            Some((d, t)) if *d == d_b => t.clone(),
+            _ => {
+                let t = std::sync::Arc::new(crate::fiber::dual::DualTable::for_chiang(self, d_b));
+                *held = Some((d_b, t.clone()));
+                t
+            }
         }
     }
 

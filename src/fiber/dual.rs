@@ -1,0 +1,448 @@
+//! Dual scattering: multiple scattering in a volume of fibers from the
+//! single-fiber far field (Zinke, Yuksel, Weber and Keyser, "Dual
+//! Scattering Approximation for Fast Multiple Scattering in Hair",
+//! SIGGRAPH 2008).
+//!
+//! Light reaching a fiber inside hair has crossed `n` other fibers on its
+//! way from the light. The *global* part is what those fibers scattered
+//! forward (it keeps travelling away from the light, spread longitudinally);
+//! the *local* part is what the fibers around the shading point scatter
+//! back towards it. Both are built from averages of the far field `f` of
+//! one fiber, integrated here over the sphere, never taken from constants.
+//!
+//! ## Quantities (per RGB channel, per incidence `u_l = sin θl`)
+//!
+//! Directions are measured by `u = sin θ` (θ from the fiber's normal
+//! plane) and the azimuth φ between the projections of the two directions
+//! on that plane (0: the same side, π: through the fiber); the solid angle
+//! is `dω = du dφ`, over which `f` integrates to the fiber's albedo. The
+//! deviation of a scattered direction from the mirror direction is
+//! `x = u_o + u_l`.
+//!
+//! ```text
+//! a_f(u_l) = ∫_{|φ|>π/2} f dω      a_b(u_l) = ∫_{|φ|<π/2} f dω         (attenuation)
+//! α_f, β_f²: mean and variance of x over the forward half, weighted by f
+//! α_b, β_b²: the same over the backward half
+//! A_1 = a_b a_f² / (1 − a_f²)      A_3 = a_b³ a_f² / (1 − a_f²)³         (Zinke eqs. 11, 12)
+//! A_b = A_1 + A_3                                                        (eq. 13)
+//! Δ_b = α_b (1 − 2a_b²/(1 − a_f²)²) + α_f (2(1 − a_f²)² + 4a_f² a_b²)/(1 − a_f²)³   (eq. 14)
+//! σ_b = (1 + d_b a_f²) (a_b √(2β_f² + β_b²) + a_b³ √(2β_f² + 3β_b²)) / (a_b + a_b³)  (eq. 16)
+//! ```
+//!
+//! `A_1` sums the paths that cross the shading point's neighbourhood with
+//! one backward scattering and any even number of forward ones
+//! (`a_b Σ_{k≥1} a_f^{2k}`), `A_3` those with three backward scatterings
+//! (`a_b³ a_f² Σ_k C(k+2, 2) a_f^{2k}`); `tests` check both against the
+//! series. Eq. 16 is printed with the denominator `a_b + a_b³(2β_f + 3β_b)`,
+//! which adds a width to a pure number; the weights of the two square roots
+//! are `a_b` and `a_b³`, so their sum is the denominator used here (σ_b is
+//! then a weighted mean of the two paths' widths, scaled by the paper's
+//! `1 + d_b a_f²`).
+//!
+//! ## Shading (per light, see [`DualTable::shade_chiang`])
+//!
+//! ```text
+//! L = E · [ P0 (f + d_b f_back) + (T − P0) d_f (f_scatter + d_b f_back') ]
+//! T = c · e^{−n (1 − a_f)}            (Poisson count of fibers, mean n; c: unoccluded by opaque geometry)
+//! σ_f² = n β_f²
+//! f_back  = A_b G(x − Δ_b; σ_b²) · [|φ| < π/2] / π
+//! f_back' = A_b G(x − Δ_b; σ_b² + σ_f²) · (1 − |φ|/π) / π
+//! f_scatter = Σ_p M_p(v_p + σ_f²) N^G_p(φ),   N^G_p(φ) = (1/π) ∫_{φ−π/2}^{φ+π/2} N̄_p
+//! ```
+//!
+//! `P0` is the fraction of the light that reaches the point unscattered
+//! (the renderer's shadow term), `G` the normalized Gaussian, `d_f`, `d_b`
+//! Zinke's density factors. Forward-scattered light arrives from azimuths
+//! within π/2 of the light's, uniformly, so `N^G` is `N̄_p` averaged over
+//! that window, and the window's overlap with the backward half is the
+//! triangle `1 − |φ|/π`.
+
+use super::chiang::ChiangFarTable;
+use crate::math::gauss_legendre;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// Nodes over `u_l = sin θl ∈ [−1, 1]`.
+pub const INCIDENCE_NODES: usize = 65;
+/// Gauss–Legendre nodes over `u_o` and midpoint nodes over φ ∈ [0, π] in
+/// the integrals of a_f, a_b and their moments.
+const U_NODES: usize = 96;
+const PHI_NODES: usize = 192;
+/// Nodes of the N^G table over cos θ ∈ [0, 1] and φ ∈ [0, π].
+const NG_COS: usize = 33;
+const NG_PHI: usize = 65;
+
+/// The dual-scattering averages at one incidence (RGB each).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DualTerms {
+    pub a_f: [f32; 3],
+    pub a_b: [f32; 3],
+    pub alpha_f: [f32; 3],
+    pub beta_f2: [f32; 3],
+    pub alpha_b: [f32; 3],
+    pub beta_b2: [f32; 3],
+    /// A_b, Δ_b, σ_b² (eqs. 13, 14, 16).
+    pub big_a_b: [f32; 3],
+    pub delta_b: [f32; 3],
+    pub sigma_b2: [f32; 3],
+}
+
+/// Front and back integrals of a far field at one incidence: per half,
+/// (∫ f, mean x, variance of x) per channel.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct HalfMoments {
+    pub energy: [f64; 3],
+    pub mean: [f64; 3],
+    pub variance: [f64; 3],
+}
+
+/// Integrates `f(u_l, u_o, φ)` (RGB) over the sphere of outgoing
+/// directions for incidence `u_l`, split into the forward (|φ| > π/2) and
+/// backward halves; `f` must be even in φ.
+pub fn half_moments(
+    u_l: f64,
+    f: &(dyn Fn(f64, f64, f64) -> [f64; 3] + Sync),
+) -> (HalfMoments, HalfMoments) {
+    let (x, w) = gauss_legendre(U_NODES);
+    let dphi = PI / PHI_NODES as f64;
+    // sums of w, w·x, w·x² per half and channel
+    let mut s = [[[0.0f64; 3]; 3]; 2];
+    for (uo, wu) in x.iter().zip(&w) {
+        let dev = uo + u_l;
+        for j in 0..PHI_NODES {
+            let phi = (j as f64 + 0.5) * dphi;
+            let half = usize::from(phi < 0.5 * PI);
+            let v = f(u_l, *uo, phi);
+            for c in 0..3 {
+                // 2: φ and −φ
+                let m = 2.0 * wu * dphi * v[c];
+                s[half][0][c] += m;
+                s[half][1][c] += m * dev;
+                s[half][2][c] += m * dev * dev;
+            }
+        }
+    }
+    let moments = |s: &[[f64; 3]; 3]| {
+        let mut m = HalfMoments::default();
+        for c in 0..3 {
+            m.energy[c] = s[0][c];
+            if s[0][c] > 0.0 {
+                m.mean[c] = s[1][c] / s[0][c];
+                m.variance[c] = (s[2][c] / s[0][c] - m.mean[c] * m.mean[c]).max(0.0);
+            }
+        }
+        m
+    };
+    (moments(&s[0]), moments(&s[1]))
+}
+
+/// A_1, A_3 (eqs. 11, 12) from the average attenuations.
+pub fn backscatter_sums(a_f: f64, a_b: f64) -> (f64, f64) {
+    let q = 1.0 - a_f * a_f;
+    if q <= 0.0 {
+        // a_f = 1 leaves nothing for a_b (a_f + a_b ≤ 1)
+        return (0.0, 0.0);
+    }
+    (a_b * a_f * a_f / q, a_b.powi(3) * a_f * a_f / (q * q * q))
+}
+
+/// Δ_b (eq. 14).
+pub fn backscatter_shift(a_f: f64, a_b: f64, alpha_f: f64, alpha_b: f64) -> f64 {
+    let q = 1.0 - a_f * a_f;
+    if q <= 0.0 {
+        return alpha_b;
+    }
+    alpha_b * (1.0 - 2.0 * a_b * a_b / (q * q))
+        + alpha_f * (2.0 * q * q + 4.0 * a_f * a_f * a_b * a_b) / (q * q * q)
+}
+
+/// σ_b² (eq. 16, with the denominator `a_b + a_b³`; see the module docs).
+pub fn backscatter_variance(a_f: f64, a_b: f64, beta_f2: f64, beta_b2: f64, d_b: f64) -> f64 {
+    let (w1, w3) = (a_b, a_b.powi(3));
+    if w1 + w3 <= 0.0 {
+        return beta_b2;
+    }
+    let s1 = (2.0 * beta_f2 + beta_b2).sqrt();
+    let s3 = (2.0 * beta_f2 + 3.0 * beta_b2).sqrt();
+    let sigma = (1.0 + d_b * a_f * a_f) * (w1 * s1 + w3 * s3) / (w1 + w3);
+    sigma * sigma
+}
+
+/// Normalized Gaussian of variance `v` at `x`.
+#[inline]
+fn gauss(x: f32, v: f32) -> f32 {
+    let v = v.max(1e-6);
+    (-0.5 * x * x / v).exp() / (std::f32::consts::TAU * v).sqrt()
+}
+
+/// Dual-scattering tables of one material.
+#[derive(Debug, Clone)]
+pub struct DualTable {
+    /// Terms at `u_l = −1 + 2k/(INCIDENCE_NODES − 1)`.
+    terms: Vec<DualTerms>,
+    /// N^G_p (p < 3, RGB) at (cos θ node, φ node): `ng[c · NG_PHI + j]`.
+    ng: Vec<[f32; 9]>,
+    /// d_b used in σ_b² (eq. 16).
+    d_b: f32,
+}
+
+impl DualTable {
+    /// The tables of a ChiangHair far field (integrated from its table).
+    pub fn for_chiang(table: &ChiangFarTable, d_b: f32) -> Self {
+        let f = |u_l: f64, u_o: f64, phi: f64| {
+            let cos = |u: f64| (1.0 - u * u).max(0.0).sqrt();
+            let l = table.lobes_from_angles(
+                (u_l as f32, cos(u_l) as f32),
+                (u_o as f32, cos(u_o) as f32),
+                phi as f32,
+            );
+            std::array::from_fn(|c| (l[0][c] + l[1][c] + l[2][c] + l[3][c]) as f64)
+        };
+        let terms = Self::terms_of(&f, d_b as f64);
+        // N^G: N̄_p averaged over a window of width π around φ.
+        let k_win = 128;
+        let ng = crate::threads::pool().install(|| {
+            (0..NG_COS * NG_PHI)
+                .into_par_iter()
+                .map(|i| {
+                    let (c, j) = (i / NG_PHI, i % NG_PHI);
+                    let cos = c as f32 / (NG_COS - 1) as f32;
+                    let phi = std::f32::consts::PI * j as f32 / (NG_PHI - 1) as f32;
+                    let mut acc = [0.0f32; 9];
+                    for k in 0..k_win {
+                        let d = std::f32::consts::PI * ((k as f32 + 0.5) / k_win as f32 - 0.5);
+                        let at = crate::math::wrap_pi(phi + d).abs();
+                        let (n, _) = table.azimuthal(cos, at);
+                        for p in 0..3 {
+                            for ch in 0..3 {
+                                acc[3 * p + ch] += n[p][ch] / k_win as f32;
+                            }
+                        }
+                    }
+                    acc
+                })
+                .collect()
+        });
+        Self { terms, ng, d_b }
+    }
+
+    /// The terms at every incidence node of far field `f(u_l, u_o, φ)`.
+    pub fn terms_of(f: &(dyn Fn(f64, f64, f64) -> [f64; 3] + Sync), d_b: f64) -> Vec<DualTerms> {
+        crate::threads::pool().install(|| {
+            (0..INCIDENCE_NODES)
+                .into_par_iter()
+                .map(|k| {
+                    let u_l = -1.0 + 2.0 * k as f64 / (INCIDENCE_NODES - 1) as f64;
+                    let (front, back) = half_moments(u_l, f);
+                    let mut t = DualTerms::default();
+                    for c in 0..3 {
+                        let (a_f, a_b) = (front.energy[c], back.energy[c]);
+                        let (a1, a3) = backscatter_sums(a_f, a_b);
+                        t.a_f[c] = a_f as f32;
+                        t.a_b[c] = a_b as f32;
+                        t.alpha_f[c] = front.mean[c] as f32;
+                        t.beta_f2[c] = front.variance[c] as f32;
+                        t.alpha_b[c] = back.mean[c] as f32;
+                        t.beta_b2[c] = back.variance[c] as f32;
+                        t.big_a_b[c] = (a1 + a3) as f32;
+                        t.delta_b[c] =
+                            backscatter_shift(a_f, a_b, front.mean[c], back.mean[c]) as f32;
+                        t.sigma_b2[c] = backscatter_variance(
+                            a_f,
+                            a_b,
+                            front.variance[c],
+                            back.variance[c],
+                            d_b,
+                        ) as f32;
+                    }
+                    t
+                })
+                .collect()
+        })
+    }
+
+    /// The terms at every incidence node.
+    pub fn nodes(&self) -> &[DualTerms] {
+        &self.terms
+    }
+
+    /// The terms at incidence `u_l` (linear between nodes).
+    pub fn terms(&self, u_l: f32) -> DualTerms {
+        let t = ((u_l.clamp(-1.0, 1.0) + 1.0) * 0.5 * (INCIDENCE_NODES - 1) as f32).max(0.0);
+        let k = (t as usize).min(INCIDENCE_NODES - 2);
+        let w = t - k as f32;
+        let (a, b) = (&self.terms[k], &self.terms[k + 1]);
+        let lerp = |x: &[f32; 3], y: &[f32; 3]| std::array::from_fn(|c| x[c] + w * (y[c] - x[c]));
+        DualTerms {
+            a_f: lerp(&a.a_f, &b.a_f),
+            a_b: lerp(&a.a_b, &b.a_b),
+            alpha_f: lerp(&a.alpha_f, &b.alpha_f),
+            beta_f2: lerp(&a.beta_f2, &b.beta_f2),
+            alpha_b: lerp(&a.alpha_b, &b.alpha_b),
+            beta_b2: lerp(&a.beta_b2, &b.beta_b2),
+            big_a_b: lerp(&a.big_a_b, &b.big_a_b),
+            delta_b: lerp(&a.delta_b, &b.delta_b),
+            sigma_b2: lerp(&a.sigma_b2, &b.sigma_b2),
+        }
+    }
+
+    /// N^G_p (p < 3, RGB) at cos θ ∈ [0, 1] and |φ| ∈ [0, π] (bilinear).
+    pub fn ng(&self, cos_theta: f32, phi: f32) -> [[f32; 3]; 3] {
+        let cell = |x: f32, n: usize| {
+            let t = x.clamp(0.0, 1.0) * (n - 1) as f32;
+            let k = (t as usize).min(n - 2);
+            (k, t - k as f32)
+        };
+        let (kc, fc) = cell(cos_theta, NG_COS);
+        let (kp, fp) = cell(phi.abs() * std::f32::consts::FRAC_1_PI, NG_PHI);
+        let at = |c: usize, j: usize| &self.ng[c * NG_PHI + j];
+        let (n00, n01, n10, n11) = (
+            at(kc, kp),
+            at(kc, kp + 1),
+            at(kc + 1, kp),
+            at(kc + 1, kp + 1),
+        );
+        std::array::from_fn(|p| {
+            std::array::from_fn(|ch| {
+                let i = 3 * p + ch;
+                (1.0 - fc) * ((1.0 - fp) * n00[i] + fp * n01[i])
+                    + fc * ((1.0 - fp) * n10[i] + fp * n11[i])
+            })
+        })
+    }
+
+    /// The effective far field of a ChiangHair fiber inside hair (RGB; the
+    /// radiance towards the viewer is `E ·` this): `view` and `light` are
+    /// (sin θ, cos θ) of the two directions, `phi` ∈ [0, π] the azimuth
+    /// between them, `p0` the unscattered fraction of the light, `n` the
+    /// fibers crossed towards the light, `clear` the fraction of that path
+    /// free of opaque geometry; `d_f` the forward density factor (`d_b` is
+    /// the table's).
+    #[allow(clippy::too_many_arguments)]
+    pub fn shade_chiang(
+        &self,
+        table: &ChiangFarTable,
+        view: (f32, f32),
+        light: (f32, f32),
+        phi: f32,
+        p0: f32,
+        n: f32,
+        clear: f32,
+        d_f: f32,
+    ) -> [f32; 3] {
+        use std::f32::consts::{FRAC_1_PI, FRAC_PI_2};
+        let lobes = table.lobes_from_angles(view, light, phi);
+        let t = self.terms(light.0);
+        let x = view.0 + light.0;
+        let back_side = if phi.abs() < FRAC_PI_2 { 1.0 } else { 0.0 };
+        let mut out = [0.0f32; 3];
+        let n = n.max(0.0);
+        let beta_f2 = (t.beta_f2[0] + t.beta_f2[1] + t.beta_f2[2]) / 3.0;
+        // forward spread after n fibers (bounded: beyond ~4 the lobes are flat)
+        let sigma_f2 = (n * beta_f2).min(4.0);
+        let scattered: [f32; 3] =
+            std::array::from_fn(|c| (clear * (-n * (1.0 - t.a_f[c])).exp() - p0).max(0.0));
+        let (m_g, ng, a3) = if scattered.iter().any(|&s| s > 0.0) {
+            let m = table.model().longitudinal_widened(view, light, sigma_f2);
+            let ng = self.ng(view.1, phi);
+            let (_, a3) = table.azimuthal(view.1, phi);
+            (m, ng, a3)
+        } else {
+            ([0.0; 4], [[0.0; 3]; 3], [0.0; 3])
+        };
+        let d_b = self.d_b;
+        for c in 0..3 {
+            let single = lobes[0][c] + lobes[1][c] + lobes[2][c] + lobes[3][c];
+            let dev = x - t.delta_b[c];
+            let back = t.big_a_b[c] * gauss(dev, t.sigma_b2[c]) * back_side * FRAC_1_PI;
+            let mut v = p0 * (single + d_b * back);
+            if scattered[c] > 0.0 {
+                let f_scatter =
+                    m_g[0] * ng[0][c] + m_g[1] * ng[1][c] + m_g[2] * ng[2][c] + m_g[3] * a3[c];
+                let back_s = t.big_a_b[c]
+                    * gauss(dev, t.sigma_b2[c] + sigma_f2)
+                    * (1.0 - phi.abs() * FRAC_1_PI)
+                    * FRAC_1_PI;
+                v += scattered[c] * d_f * (f_scatter + d_b * back_s);
+            }
+            out[c] = if v.is_finite() { v.max(0.0) } else { 0.0 };
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    // 01: A_1 and A_3 equal the path sums they stand for (series to 1e-12).
+    #[test]
+    fn t01_backscatter_sums_are_the_series() {
+        for &(a_f, a_b) in &[(0.3, 0.2), (0.7, 0.25), (0.9, 0.08), (0.05, 0.9)] {
+            let x: f64 = a_f * a_f;
+            let a1: f64 = (1..4000).map(|k| a_b * x.powi(k)).sum();
+            let a3: f64 = (0..4000i32)
+                .map(|k| a_b.powi(3) * x * ((k + 1) * (k + 2) / 2) as f64 * x.powi(k))
+                .sum();
+            let (s1, s3) = backscatter_sums(a_f, a_b);
+            assert!(
+                (s1 - a1).abs() < 1e-12 * a1.max(1.0),
+                "{a_f} {a_b}: {s1} vs {a1}"
+            );
+            assert!(
+                (s3 - a3).abs() < 1e-10 * a3.max(1.0),
+                "{a_f} {a_b}: {s3} vs {a3}"
+            );
+        }
+    }
+
+    // 02: σ_b is the weighted mean of the two paths' widths times
+    // (1 + d_b a_f²); equal widths give that width back.
+    #[test]
+    fn t02_backscatter_variance() {
+        let (bf2, bb2): (f64, f64) = (0.04, 0.09);
+        let s1 = (2.0 * bf2 + bb2).sqrt();
+        let s3 = (2.0f64 * bf2 + 3.0 * bb2).sqrt();
+        let (a_f, a_b, d_b) = (0.6, 0.3, 0.7);
+        let want = ((1.0 + d_b * a_f * a_f) * (a_b * s1 + a_b * a_b * a_b * s3)
+            / (a_b + a_b.powi(3)))
+        .powi(2);
+        assert!((backscatter_variance(a_f, a_b, bf2, bb2, d_b) - want).abs() < 1e-15);
+        // β_f = 0: both paths' widths are multiples of β_b
+        let v = backscatter_variance(0.0, 0.5, 0.0, 0.01, 0.7);
+        let want = ((0.5 * 0.1 + 0.125 * 3f64.sqrt() * 0.1) / 0.625).powi(2);
+        assert!((v - want).abs() < 1e-15);
+    }
+
+    // 03: Δ_b with no forward shift and a_f = 0 is α_b (1 − 2 a_b²), the
+    // forward shift counts twice (two forward passes per path) there; with
+    // equal shifts the two weights add up as the formula says.
+    #[test]
+    fn t03_backscatter_shift() {
+        assert!(
+            (backscatter_shift(0.0, 0.4, 0.0, -0.1) - (-0.1 * (1.0 - 2.0 * 0.16))).abs() < 1e-15
+        );
+        assert!((backscatter_shift(0.0, 0.4, 0.3, 0.0) - 0.6).abs() < 1e-15);
+        let (a_f, a_b): (f64, f64) = (0.5, 0.3);
+        let q = 1.0 - a_f * a_f;
+        let w = (1.0 - 2.0 * a_b * a_b / (q * q))
+            + (2.0 * q * q + 4.0 * a_f * a_f * a_b * a_b) / q.powi(3);
+        assert!((backscatter_shift(a_f, a_b, 0.2, 0.2) - 0.2 * w).abs() < 1e-15);
+    }
+
+    // 04: the moments of a known field: f = 1/(4π) (isotropic, albedo 1)
+    // splits in halves of 1/2 each, x = u_o + u_l has mean u_l and
+    // variance 1/3 on each half.
+    #[test]
+    fn t04_half_moments_isotropic() {
+        let f = |_: f64, _: f64, _: f64| [1.0 / (4.0 * PI); 3];
+        for &u in &[-0.8, 0.0, 0.35] {
+            let (fr, bk) = half_moments(u, &f);
+            for m in [fr, bk] {
+                assert!((m.energy[0] - 0.5).abs() < 1e-12);
+                assert!((m.mean[1] - u).abs() < 1e-12);
+                assert!((m.variance[2] - 1.0 / 3.0).abs() < 1e-12);
+            }
+        }
+    }
+}

@@ -1,0 +1,132 @@
+"""Dual scattering (`render.multiple_scattering = "dual"`, ChiangHair): its
+tables against exact identities and the paper's equations, the option's
+errors, and renders against the converged dense-hair references in
+tests/data/dense (Mitsuba path tracing, max_depth 64)."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+import hairshade as hs
+
+DENSE = pathlib.Path(__file__).parent / "data" / "dense"
+ROUGH = (0.1, 0.3, 0.6, 0.9)
+FIELDS = ("a_f", "a_b", "alpha_f", "beta_f2", "alpha_b", "beta_b2", "A_b", "delta_b", "sigma_b2")
+
+
+def test_01_white_fiber_conserves_energy():
+    # sigma_a = 0: the far field integrates to 1 over the sphere (Chiang's
+    # model conserves energy at every h), so a_f + a_b = 1. The integrals
+    # run over the f32 far-field table (96 Gauss-Legendre x 192 midpoint
+    # nodes); measured worst |a_f + a_b - 1| over 16 roughness pairs:
+    # 2.9e-6 at the interior nodes. Gate 1e-4. The end nodes (sin theta =
+    # +-1, the direction along the fiber) have no cross-section and are
+    # left out.
+    for bm in ROUGH:
+        for bn in ROUGH:
+            d = hs.ChiangHair(sigma_a=0.0, longitudinal_roughness=bm, azimuthal_roughness=bn).dual_terms()
+            s = (d["a_f"] + d["a_b"])[1:-1]
+            assert np.abs(s - 1).max() < 1e-4, (bm, bn, np.abs(s - 1).max())
+
+
+def test_02_terms_in_range_everywhere():
+    # Over melanin 0..8 x pheomelanin x roughness: every term finite,
+    # attenuations, widths and A_b >= 0, a_f + a_b <= 1 (+1e-4 of
+    # quadrature error, see test 01).
+    for eu in (0.0, 0.3, 1.3, 4.0, 8.0):
+        for ph in (0.0, 0.9):
+            for r in (0.1, 0.5, 0.9):
+                d = hs.ChiangHair(eumelanin=eu, pheomelanin=ph, longitudinal_roughness=r,
+                                  azimuthal_roughness=r).dual_terms()
+                for k in FIELDS:
+                    assert d[k].shape == (65, 3) and np.isfinite(d[k]).all(), k
+                for k in ("a_f", "a_b", "beta_f2", "beta_b2", "A_b", "sigma_b2"):
+                    assert (d[k] >= 0).all(), k
+                assert (d["a_f"] + d["a_b"]).max() <= 1 + 1e-4
+
+
+def test_03_derived_terms_follow_the_equations():
+    # A_b, Delta_b, sigma_b^2 recomputed here in float64 from the table's
+    # own a_f, a_b, alpha, beta (Zinke et al. 2008 eqs. 11-14, 16 with the
+    # denominator a_b + a_b^3): they agree to float32 rounding (gate 1e-5
+    # relative to the term's scale).
+    d_b = 0.7
+    d = hs.ChiangHair(eumelanin=0.3, pheomelanin=0.2).dual_terms(back_density=d_b)
+    af, ab = d["a_f"], d["a_b"]
+    q = 1 - af**2
+    a_b = ab * af**2 / q + ab**3 * af**2 / q**3
+    delta = d["alpha_b"] * (1 - 2 * ab**2 / q**2) + d["alpha_f"] * (2 * q**2 + 4 * af**2 * ab**2) / q**3
+    s1 = np.sqrt(2 * d["beta_f2"] + d["beta_b2"])
+    s3 = np.sqrt(2 * d["beta_f2"] + 3 * d["beta_b2"])
+    sigma2 = ((1 + d_b * af**2) * (ab * s1 + ab**3 * s3) / (ab + ab**3)) ** 2
+    for want, got in ((a_b, d["A_b"]), (delta, d["delta_b"]), (sigma2, d["sigma_b2"])):
+        assert np.abs(want - got).max() < 1e-5 * max(1.0, np.abs(want).max())
+    # back_density enters sigma_b only
+    d0 = hs.ChiangHair(eumelanin=0.3, pheomelanin=0.2).dual_terms(back_density=0.0)
+    np.testing.assert_array_equal(d0["A_b"], d["A_b"])
+    assert (d0["sigma_b2"] <= d["sigma_b2"]).all() and (d0["sigma_b2"] < d["sigma_b2"]).any()
+
+
+def _small(name: str, **render) -> hs.Scene:
+    d = json.loads((DENSE / f"{name}.json").read_text())
+    d["hair"]["generate"]["strands"] = 2000
+    d["camera"]["resolution"] = [96, 54]
+    d["render"].update(render)
+    return hs.Scene.from_dict(d)
+
+
+def test_04_option_errors():
+    with pytest.raises(ValueError, match="multiple_scattering"):
+        hs.render(_small("auburn_key"), multiple_scattering="karis")
+    with pytest.raises(ValueError, match="multiple_scattering"):
+        hs.render(_small("auburn_key"), multiple_scattering="volumetric")
+    d = json.loads((DENSE / "auburn_key.json").read_text())
+    d["hair"]["material"] = {"model": "karis"}
+    d["hair"]["generate"]["strands"] = 200
+    with pytest.raises(ValueError, match="multiple_scattering"):
+        hs.render(hs.Scene.from_dict(d), width=32, height=18, multiple_scattering="dual")
+    for key, bad in (("dual_forward_density", 1.5), ("dual_back_density", -0.1), ("density_resolution", 4)):
+        d = json.loads((DENSE / "auburn_key.json").read_text())
+        d["render"][key] = bad
+        with pytest.raises(hs.SceneError, match=key):
+            hs.Scene.from_dict(d)
+
+
+def test_05_dual_only_adds_light():
+    # With the density shadow model both renders share the unscattered
+    # light P0 = e^-n and dual adds the scattered terms (each >= 0), so no
+    # pixel gets darker (f32 rounding: 1e-6 relative), blond hair gets
+    # brighter, and nothing is NaN.
+    for name in ("blond_back", "black_top"):
+        none = hs.render(_small(name, shadow_model="density"), multiple_scattering="none")
+        dual = hs.render(_small(name, shadow_model="density"), multiple_scattering="dual")
+        assert np.isfinite(dual).all()
+        assert (dual >= none - 1e-6 * none.max()).all(), name
+        if name == "blond_back":
+            assert dual.mean() > 1.2 * none.mean()
+
+
+@pytest.mark.slow
+def test_06_dual_against_path_tracing():
+    # The measured state (docs: issue notes), gated so that it cannot
+    # regress: blond backlit hair is mostly multiple scattering (Mitsuba
+    # depth 2 vs 64: direct light is 38-57% per channel). Against the
+    # converged reference (halves relMSE 5.2e-4), the rasterizer without
+    # multiple scattering has relMSE 0.229 (default exponential shadows);
+    # dual scattering with density shadows and d_f = d_b
+    # = 1 brings it to 0.048 and the mean radiance from 0.94/1.11/1.40 of
+    # the truth to 0.89/0.84/0.73 (hue). Gates: relMSE at most half of
+    # 'none', every channel's mean within 30% of the truth.
+    d = json.loads((DENSE / "blond_back.json").read_text())
+    ref = hs.read_exr(str(DENSE / "blond_back.exr"))[..., :3]
+    none = hs.render(hs.Scene.from_dict(d), multiple_scattering="none")
+    d["render"].update(shadow_model="density", dual_forward_density=1.0, dual_back_density=1.0)
+    dual = hs.render(hs.Scene.from_dict(d), multiple_scattering="dual")
+    e_none, e_dual = hs.rel_mse(none, ref), hs.rel_mse(dual, ref)
+    ratio = dual.reshape(-1, 3).mean(0) / ref.reshape(-1, 3).mean(0)
+    assert e_dual < 0.5 * e_none, (e_dual, e_none)
+    assert np.abs(ratio - 1).max() < 0.3, ratio
