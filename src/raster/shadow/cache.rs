@@ -1,0 +1,142 @@
+//! The shadow-map cache: maps of recent renders reused while nothing they
+//! depend on changed.
+
+use super::ShadowMap;
+use crate::raster::scene::{Light, RenderOptions, Scene};
+use crate::raster::setup::{Bounds, WorldSegment};
+
+/// Shadow maps of recent renders, reused while nothing they depend on
+/// changed (the geometry, the light, the shadow settings): a camera move
+/// re-renders with the maps of the previous frame. Holds at most
+/// [`CACHE_MAPS`] maps (least recently used dropped first); each costs
+/// `2 · size²` floats (plus `SLABS · size²` floats and `LAYERS · size²`
+/// 16-byte deposits with the opacity model): 8 MiB at the default 1024²
+/// (112 MiB with the opacity model), so the cache holds at most 32 MiB by
+/// default (448 MiB with opacity maps).
+pub const CACHE_MAPS: usize = 4;
+
+type CacheEntry = (u64, std::sync::Arc<ShadowMap>);
+
+fn cache() -> &'static std::sync::Mutex<Vec<CacheEntry>> {
+    static CACHE: std::sync::OnceLock<std::sync::Mutex<Vec<CacheEntry>>> =
+        std::sync::OnceLock::new();
+    CACHE.get_or_init(|| std::sync::Mutex::new(Vec::new()))
+}
+
+/// 64-bit hash of a stream of words (a multiply-xorshift mix; collisions
+/// between different scenes have probability ~2^-64).
+#[derive(Default)]
+pub struct WordHash(u64);
+
+impl WordHash {
+    #[inline]
+    pub fn word(&mut self, w: u64) {
+        self.0 = (self.0 ^ w)
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            .rotate_left(29);
+    }
+    pub fn floats(&mut self, xs: impl IntoIterator<Item = f32>) {
+        let mut n = 0u64;
+        for x in xs {
+            self.word(x.to_bits() as u64);
+            n += 1;
+        }
+        self.word(n);
+    }
+    pub fn finish(&self) -> u64 {
+        self.0 ^ (self.0 >> 31)
+    }
+}
+
+/// Hash of everything a shadow map draws (strands, cards with their alpha
+/// textures, spheres, meshes).
+pub fn geometry_hash(scene: &Scene) -> u64 {
+    let mut h = WordHash::default();
+    let st = &scene.strands;
+    h.floats(st.points.iter().flat_map(|p| p.to_array()));
+    h.floats(st.radii.iter().copied());
+    h.floats(st.offsets.iter().map(|&o| f32::from_bits(o)));
+    let c = &scene.cards;
+    h.floats(c.corners.iter().flat_map(|p| p.to_array()));
+    h.floats(c.uvs.iter().flatten().copied());
+    h.floats(c.texture.iter().map(|&t| f32::from_bits(t)));
+    for t in &c.textures {
+        h.word(((t.width as u64) << 32) | t.height as u64);
+        h.floats(t.alpha.iter().copied());
+    }
+    h.floats(
+        scene
+            .spheres
+            .iter()
+            .flat_map(|s| [s.center.x, s.center.y, s.center.z, s.radius]),
+    );
+    h.floats(
+        scene
+            .triangles
+            .iter()
+            .flat_map(|t| t.p)
+            .flat_map(|p| p.to_array()),
+    );
+    h.finish()
+}
+
+impl ShadowMap {
+    /// [`ShadowMap::build`], or the map an earlier render built for the same
+    /// geometry (`geometry` = [`geometry_hash`]), light and settings; the
+    /// flag says whether it was reused. Identical either way: building is
+    /// deterministic.
+    pub fn build_cached(
+        light: &Light,
+        scene: &Scene,
+        segments: &[WorldSegment],
+        bounds: Bounds,
+        opts: &RenderOptions,
+        geometry: u64,
+    ) -> (Option<std::sync::Arc<ShadowMap>>, bool) {
+        let (pos_or_dir, shadows) = match *light {
+            Light::Directional {
+                direction, shadows, ..
+            } => (direction, shadows),
+            Light::Point {
+                position, shadows, ..
+            } => (position, shadows),
+        };
+        if !shadows {
+            return (None, false);
+        }
+        let mut h = WordHash::default();
+        h.word(geometry);
+        h.word(matches!(light, Light::Point { .. }) as u64);
+        h.floats(pos_or_dir.to_array());
+        h.floats(bounds.center.to_array());
+        h.floats([bounds.radius, opts.shadow_density]);
+        h.word(opts.shadow_map_size as u64);
+        h.word(opts.pcf_radius as u64);
+        h.word(opts.shadow_model as u64);
+        let key = h.finish();
+        {
+            let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(i) = c.iter().position(|(k, _)| *k == key) {
+                let e = c.remove(i);
+                let map = e.1.clone();
+                c.push(e);
+                return (Some(map), true);
+            }
+        }
+        let Some(m) = Self::build(light, scene, segments, bounds, opts) else {
+            return (None, false);
+        };
+        let m = std::sync::Arc::new(m);
+        let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
+        if c.len() >= CACHE_MAPS {
+            c.remove(0);
+        }
+        c.push((key, m.clone()));
+        (Some(m), false)
+    }
+}
+
+/// Drops every cached shadow map (see [`ShadowMap::build_cached`]).
+pub fn clear_cache() {
+    cache().lock().unwrap_or_else(|e| e.into_inner()).clear();
+}
