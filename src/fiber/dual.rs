@@ -58,7 +58,8 @@
 //! triangle `1 − |φ|/π`.
 
 use super::chiang::ChiangFarTable;
-use crate::math::gauss_legendre;
+use crate::fiber::lobes::gaussian;
+use crate::math::{gauss_legendre, grid_cell};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
@@ -171,8 +172,7 @@ pub fn backscatter_variance(a_f: f64, a_b: f64, beta_f2: f64, beta_b2: f64, d_b:
 /// Normalized Gaussian of variance `v` at `x`.
 #[inline]
 fn gauss(x: f32, v: f32) -> f32 {
-    let v = v.max(1e-6);
-    (-0.5 * x * x / v).exp() / (std::f32::consts::TAU * v).sqrt()
+    gaussian(v.max(1e-6).sqrt(), x)
 }
 
 /// Dual-scattering tables of one material.
@@ -268,9 +268,7 @@ impl DualTable {
 
     /// The terms at incidence `u_l` (linear between nodes).
     pub fn terms(&self, u_l: f32) -> DualTerms {
-        let t = ((u_l.clamp(-1.0, 1.0) + 1.0) * 0.5 * (INCIDENCE_NODES - 1) as f32).max(0.0);
-        let k = (t as usize).min(INCIDENCE_NODES - 2);
-        let w = t - k as f32;
+        let (k, w) = grid_cell(0.5 * (u_l + 1.0), INCIDENCE_NODES);
         let (a, b) = (&self.terms[k], &self.terms[k + 1]);
         let lerp = |x: &[f32; 3], y: &[f32; 3]| std::array::from_fn(|c| x[c] + w * (y[c] - x[c]));
         DualTerms {
@@ -288,13 +286,8 @@ impl DualTable {
 
     /// N^G_p (p < 3, RGB) at cos θ ∈ [0, 1] and |φ| ∈ [0, π] (bilinear).
     pub fn ng(&self, cos_theta: f32, phi: f32) -> [[f32; 3]; 3] {
-        let cell = |x: f32, n: usize| {
-            let t = x.clamp(0.0, 1.0) * (n - 1) as f32;
-            let k = (t as usize).min(n - 2);
-            (k, t - k as f32)
-        };
-        let (kc, fc) = cell(cos_theta, NG_COS);
-        let (kp, fp) = cell(phi.abs() * std::f32::consts::FRAC_1_PI, NG_PHI);
+        let (kc, fc) = grid_cell(cos_theta, NG_COS);
+        let (kp, fp) = grid_cell(phi.abs() * std::f32::consts::FRAC_1_PI, NG_PHI);
         let at = |c: usize, j: usize| &self.ng[c * NG_PHI + j];
         let (n00, n01, n10, n11) = (
             at(kc, kp),
@@ -342,11 +335,10 @@ impl DualTable {
         let sigma_f2 = (n * beta_f2).min(4.0);
         let scattered: [f32; 3] =
             std::array::from_fn(|c| (clear * (-n * (1.0 - t.a_f[c])).exp() - p0).max(0.0));
+        // Ā_3 is constant in φ: its window average is itself
         let (m_g, ng, a3) = if scattered.iter().any(|&s| s > 0.0) {
             let m = table.model().longitudinal_widened(view, light, sigma_f2);
-            let ng = self.ng(view.1, phi);
-            let (_, a3) = table.azimuthal(view.1, phi);
-            (m, ng, a3)
+            (m, self.ng(view.1, phi), table.azimuthal(view.1, phi).1)
         } else {
             ([0.0; 4], [[0.0; 3]; 3], [0.0; 3])
         };

@@ -279,6 +279,15 @@ pub fn trimmed_logistic_sample<T: Real>(u: T, s: T) -> T {
     x.max(-T::PI).min(T::PI)
 }
 
+/// Cell index and fraction of `x` ∈ [0, 1] (clamped) on a uniform grid of
+/// `n ≥ 2` nodes: linear interpolation between nodes `k` and `k + 1`.
+#[inline(always)]
+pub fn grid_cell(x: f32, n: usize) -> (usize, f32) {
+    let t = x.clamp(0.0, 1.0) * (n - 1) as f32;
+    let k = (t as usize).min(n - 2);
+    (k, t - k as f32)
+}
+
 /// Wraps an angle into [-π, π].
 #[inline(always)]
 pub fn wrap_pi<T: Real>(x: T) -> T {

@@ -59,6 +59,15 @@ impl Light {
             }
         }
     }
+
+    /// Distance from `p` to the light (infinite for a directional light).
+    #[inline]
+    pub fn distance(&self, p: Vec3) -> f32 {
+        match *self {
+            Light::Directional { .. } => f32::INFINITY,
+            Light::Point { position, .. } => (position - p).length(),
+        }
+    }
 }
 
 /// Band-2 SH environment radiance (9 RGB coefficients).

@@ -328,22 +328,23 @@ impl<'a> Shader<'a> {
         let vis = sm
             .as_ref()
             .map_or(1.0, |m| m.visibility_fiber(p, q, &fiber));
-        if let Some(grid) = &self.traced {
-            if vis > 0.0 && sm.is_some() {
-                let (l, _) = self.scene.lights[li].incident(q);
-                let t_max = match self.scene.lights[li] {
-                    super::scene::Light::Point { position, .. } => (position - q).length(),
-                    _ => f32::INFINITY,
-                };
-                if grid.occluded(q, l, t_max, &fiber) {
-                    return 0.0;
-                }
-            }
+        if vis > 0.0 && self.traced_occluded(li, q, &fiber) {
+            return 0.0;
         }
         match self.counts.get(li).and_then(Option::as_ref) {
             Some(c) if vis > 0.0 && self.count_shadows => vis * (-c.at(p).0).exp(),
             _ => vis,
         }
+    }
+
+    /// Whether a strand blocks light `li` from `o` (shadow model `traced`,
+    /// a light that casts shadows), `fiber`'s own stretch left out.
+    fn traced_occluded(&self, li: usize, o: Vec3, fiber: &Fiber) -> bool {
+        let (Some(grid), Some(Some(_))) = (&self.traced, self.shadows.get(li)) else {
+            return false;
+        };
+        let light = &self.scene.lights[li];
+        grid.occluded(o, light.incident(o).0, light.distance(o), fiber)
     }
 
     /// The fraction of light `li` that reaches an opaque surface point `p`
@@ -354,17 +355,9 @@ impl<'a> Shader<'a> {
     /// incidence: a diffuse surface does not see the spread), otherwise the
     /// unscattered part `e^{-n}`. Other models: 1 (the map holds hair).
     pub fn hair_transmittance(&self, li: usize, p: Vec3) -> Vec3 {
-        if let Some(grid) = &self.traced {
-            let (l, _) = self.scene.lights[li].incident(p);
-            let t_max = match self.scene.lights[li] {
-                super::scene::Light::Point { position, .. } => (position - p).length(),
-                _ => f32::INFINITY,
-            };
-            return if grid.occluded(p, l, t_max, &Fiber::NONE) {
-                Vec3::ZERO
-            } else {
-                Vec3::ONE
-            };
+        if self.traced.is_some() {
+            let blocked = self.traced_occluded(li, p, &Fiber::NONE);
+            return if blocked { Vec3::ZERO } else { Vec3::ONE };
         }
         let Some(count) = self.counts.get(li).and_then(Option::as_ref) else {
             return Vec3::ONE;

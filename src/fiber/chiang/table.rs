@@ -23,7 +23,7 @@
 
 use super::{ChiangHair, Geometry, P_MAX};
 use crate::fiber::frame::Vec3;
-use crate::math::{trimmed_logistic, wrap_pi};
+use crate::math::{grid_cell, trimmed_logistic, wrap_pi};
 use rayon::prelude::*;
 
 /// Grid of a [`ChiangFarTable`].
@@ -150,8 +150,8 @@ impl ChiangFarTable {
     /// N̄_p (p = 0, 1, 2, RGB) and Ā_3 at `cos θi` ∈ [0, 1] and `|φ|` ∈ [0, π].
     #[inline]
     pub fn azimuthal(&self, cos_theta_i: f32, phi: f32) -> ([[f32; 3]; 3], [f32; 3]) {
-        let (kc, fc) = cell(cos_theta_i, self.size.cos_theta);
-        let (kp, fp) = cell(phi * std::f32::consts::FRAC_1_PI, self.size.phi);
+        let (kc, fc) = grid_cell(cos_theta_i, self.size.cos_theta);
+        let (kp, fp) = grid_cell(phi * std::f32::consts::FRAC_1_PI, self.size.phi);
         let row = self.size.phi;
         let at = |c: usize, p: usize| &self.n[(c * row + p) * NODE..(c * row + p + 1) * NODE];
         let (n00, n01, n10, n11) = (
@@ -221,14 +221,6 @@ impl ChiangFarTable {
         let l = self.eval_lobes(wi, wo);
         std::array::from_fn(|c| l[0][c] + l[1][c] + l[2][c] + l[3][c])
     }
-}
-
-/// Cell index and fraction of `x` ∈ [0, 1] on a grid of `n` nodes.
-#[inline(always)]
-fn cell(x: f32, n: usize) -> (usize, f32) {
-    let t = x.clamp(0.0, 1.0) * (n - 1) as f32;
-    let k = (t as usize).min(n - 2);
-    (k, t - k as f32)
 }
 
 impl ChiangHair<f64> {
