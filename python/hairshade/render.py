@@ -19,6 +19,7 @@ def render(
     height: int | None = None,
     transparency: str | None = None,
     layers: int | None = None,
+    samples: int | None = None,
     shading: str | None = None,
     frustum_culling: bool | None = None,
     backface_culling: bool | None = None,
@@ -37,9 +38,12 @@ def render(
     overrides the scene's render option of the same name (None: the
     scene's value, whose default is given here):
 
-    - ``transparency`` ("mlab", default, or "sorted"), ``layers`` (MLAB
-      layers, 1 to 64, default 4), ``shading`` ("pixel", default, or
-      "vertex");
+    - ``transparency`` ("mlab", default; "sorted"; or "coverage": hair as
+      opaque sub-pixel geometry, the nearest fiber per coverage sample, so
+      disjoint thin strands add up to their true area and only visible
+      fragments are shaded), ``layers`` (MLAB layers, 1 to 64, default 4),
+      ``samples`` (coverage samples per pixel, 1 to 64, default 16),
+      ``shading`` ("pixel", default, or "vertex");
     - ``frustum_culling`` (default on) drops strand segments that reach no
       pixel before shading them (per-vertex shading then shades only the
       vertices of the remaining segments; exact: the image is identical);
@@ -78,7 +82,7 @@ def render(
         cam["width"], cam["height"] = w, h
     options = dict(scene.render)
     overrides = dict(
-        transparency=transparency, layers=layers, shading=shading, frustum_culling=frustum_culling,
+        transparency=transparency, layers=layers, samples=samples, shading=shading, frustum_culling=frustum_culling,
         backface_culling=backface_culling, opaque_culling=opaque_culling, skip_unused=skip_unused,
         reuse_shadow_maps=reuse_shadow_maps, light_cull_threshold=light_cull_threshold,
         multiple_scattering=multiple_scattering,

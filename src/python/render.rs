@@ -162,7 +162,7 @@ fn repr(v: &Bound<'_, PyAny>) -> String {
 /// The render options a dict describes (defaults for missing keys), every
 /// value checked against its type and range, and the MLAB layer count
 /// (kept also when the transparency is `sorted`).
-fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
+fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize))> {
     let def = RenderOptions::default();
     let mut r = OptionReader {
         d,
@@ -172,7 +172,9 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
     let (s0, s1) = RenderOptions::SHADOW_MAP_SIZE;
     let (p0, p1) = RenderOptions::PCF_RADIUS;
     let (d0, d1) = RenderOptions::DENSITY_RESOLUTION;
-    let transparency = r.choice("transparency", "mlab", &["mlab", "sorted"])?;
+    let transparency = r.choice("transparency", "mlab", &["mlab", "sorted", "coverage"])?;
+    let (c0, c1) = crate::raster::samples::SAMPLES;
+    let samples = r.int("samples", 16, c0 as i64, c1 as i64)? as usize;
     let multiple_scattering = match r.choice(
         "multiple_scattering",
         "auto",
@@ -187,6 +189,7 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
     let opts = RenderOptions {
         transparency: match transparency {
             "sorted" => Transparency::Sorted,
+            "coverage" => Transparency::Coverage(samples),
             _ => Transparency::Mlab(layers),
         },
         shadow_map_size: r.int(
@@ -237,7 +240,7 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
             as f32,
     };
     r.finish()?;
-    Ok((opts, layers))
+    Ok((opts, (layers, samples)))
 }
 
 /// The render options as a dict with every key (the form
@@ -245,15 +248,17 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, usize)> {
 fn options_dict<'py>(
     py: Python<'py>,
     o: &RenderOptions,
-    layers: usize,
+    (layers, samples): (usize, usize),
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let transparency = match o.transparency {
         Transparency::Mlab(_) => "mlab",
         Transparency::Sorted => "sorted",
+        Transparency::Coverage(_) => "coverage",
     };
     d.set_item("transparency", transparency)?;
     d.set_item("layers", layers)?;
+    d.set_item("samples", samples)?;
     d.set_item("shadow_map_size", o.shadow_map_size)?;
     d.set_item(
         "shadow_model",

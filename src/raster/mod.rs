@@ -32,6 +32,7 @@ pub mod coverage;
 pub mod cull;
 pub mod density;
 pub mod oit;
+pub mod samples;
 pub mod scene;
 pub mod setup;
 pub mod shade;

@@ -184,6 +184,9 @@ pub enum Transparency {
     Mlab(usize),
     /// Every fragment kept and sorted: the exact result MLAB approximates.
     Sorted,
+    /// Hair as opaque sub-pixel geometry: the nearest fragment per coverage
+    /// sample, `n` samples per pixel ([`super::samples`]).
+    Coverage(usize),
 }
 
 /// Renderer settings.

@@ -501,7 +501,7 @@ pub fn shade_diffuse(shader: &Shader, p: Vec3, n: Vec3, albedo: Vec3) -> Vec3 {
         }
         let vis = sm
             .as_ref()
-            .map_or(1.0, |m| m.visibility(p + n * 1e-4 * m.scale()));
+            .map_or(1.0, |m| m.visibility_surface(p + n * 1e-4 * m.scale(), n));
         e_total += e * c * vis * shader.hair_transmittance(li, p);
     }
     if let Some(env) = &scene.environment {

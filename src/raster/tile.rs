@@ -9,6 +9,7 @@ use super::bin::TILE;
 use super::coverage::{coverage, ray_sphere, triangle_pixels, RowSpan, Tri2};
 use super::cull::BehindOpaque;
 use super::oit::Layers;
+use super::samples::{strand_covers, unit, SampleBuffer, SamplePoints};
 use super::scene::{RenderOptions, Scene, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
 use super::shade::{shade_diffuse, Fiber, Shader, ShadowMaps};
@@ -69,6 +70,7 @@ pub fn render_tile(ctx: &TileContext<'_>, bins: &TileBins<'_>, tx: u32, ty: u32)
         ctx.opts.opaque_culling,
         t.pixel_indices().map(|k| t.opaque_depth[k]),
     );
+    t.start_samples();
     t.strands(bins.segs, behind);
     t.cards(bins.cards, behind);
     t.shade_pending();
@@ -87,6 +89,11 @@ struct Tile<'a> {
     opaque_depth: Vec<f32>,
     base: Vec<Vec3>,
     layers: Layers,
+    /// Coverage samples (transparency `coverage`): the points and the
+    /// nearest fragment per sample; fragments are then collected in
+    /// `pending` (ids are their indices there) and only those owning a
+    /// sample are shaded.
+    samples: Option<(SamplePoints, SampleBuffer)>,
     /// Per-pixel shading on the vector kernel: the tile's hair fragments are
     /// collected (in the order they are produced), shaded in one batch, then
     /// composited in that same order (MLAB depends on it).
@@ -112,9 +119,10 @@ impl<'a> Tile<'a> {
                 n,
                 match ctx.opts.transparency {
                     Transparency::Mlab(k) => Some(k),
-                    Transparency::Sorted => None,
+                    Transparency::Sorted | Transparency::Coverage(_) => None,
                 },
             ),
+            samples: None,
             deferred: !ctx.opts.vertex_shading && ctx.shader.batches(),
             pending: Pending::default(),
             fragments: 0,
@@ -189,6 +197,41 @@ impl<'a> Tile<'a> {
         }
     }
 
+    /// The sample buffer, once the opaque depth is known (coverage mode).
+    fn start_samples(&mut self) {
+        if let Transparency::Coverage(n) = self.ctx.opts.transparency {
+            let pts = SamplePoints::new(n, self.x0, self.y0, self.tw, self.th);
+            self.samples = Some((pts, SampleBuffer::new(n, &self.opaque_depth)));
+        }
+    }
+
+    /// A hair fragment at tile pixel `k` over the samples `covers` accepts
+    /// (coverage mode): collected when it is nearest at any of them.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn sampled_fragment(
+        &mut self,
+        k: usize,
+        depth: f32,
+        p: Vec3,
+        t: Vec3,
+        fiber: Fiber,
+        color: Option<Vec3>,
+        covers: impl FnMut([f32; 2]) -> bool,
+    ) {
+        let Some((pts, buf)) = &mut self.samples else {
+            return;
+        };
+        let id = self.pending.k.len() as u32;
+        let mut covers = covers;
+        let pix = pts.pixel(k);
+        if buf.cover(k, depth, id, |s| covers(pix[s])) {
+            self.fragments += 1;
+            self.pending.push(k, depth, 1.0, p, t, fiber);
+            self.pending.color.push(color.unwrap_or(Vec3::ZERO));
+        }
+    }
+
     /// A hair fragment at tile pixel `k`: shaded now, or collected for the
     /// batch (`deferred`); `color` is the interpolated per-vertex radiance
     /// when there is one.
@@ -223,6 +266,7 @@ impl<'a> Tile<'a> {
     fn strands(&mut self, bin: &[u32], behind: BehindOpaque) {
         let (view, opts) = (self.ctx.view, self.ctx.opts);
         let (x0, y0, tw, th) = (self.x0, self.y0, self.tw, self.th);
+        let sampled = self.samples.is_some();
         for &si in bin {
             let s = &self.ctx.segs[si as usize];
             if behind.hides(s.za.min(s.zb)) {
@@ -239,6 +283,9 @@ impl<'a> Tile<'a> {
             }
             let tangent = (s.pb - s.pa).normalize_or_zero();
             let span = RowSpan::new(s, pad - 0.5);
+            let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
+            let len2 = d[0] * d[0] + d[1] * d[1];
+            let inv_len2 = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
             for j in by0..=by1 as u32 {
                 let py = (y0 + j) as f32 + 0.5;
                 let Some((lo, hi)) = span.pixels(py, x0, bx0, bx1 as u32) else {
@@ -246,7 +293,16 @@ impl<'a> Tile<'a> {
                 };
                 for i in lo..=hi {
                     let k = (j * TILE + i) as usize;
-                    let Some((cov, t)) = coverage(s, [(x0 + i) as f32 + 0.5, py]) else {
+                    let pc = [(x0 + i) as f32 + 0.5, py];
+                    let found = if sampled {
+                        // Shading point and depth at the centre line's point
+                        // nearest the pixel centre.
+                        let t_raw = ((pc[0] - s.a[0]) * d[0] + (pc[1] - s.a[1]) * d[1]) * inv_len2;
+                        Some((0.0, t_raw.clamp(0.0, 1.0)))
+                    } else {
+                        coverage(s, pc)
+                    };
+                    let Some((cov, t)) = found else {
                         continue;
                     };
                     // Perspective-correct depth and world position.
@@ -263,7 +319,13 @@ impl<'a> Tile<'a> {
                         strand: s.strand,
                         segment: s.i - s.strand,
                     };
-                    self.hair_fragment(k, depth, cov, pw, tangent, fiber, color);
+                    if sampled {
+                        self.sampled_fragment(k, depth, pw, tangent, fiber, color, |p| {
+                            strand_covers(s, d, inv_len2, p)
+                        });
+                    } else {
+                        self.hair_fragment(k, depth, cov, pw, tangent, fiber, color);
+                    }
                 }
             }
         }
@@ -293,7 +355,22 @@ impl<'a> Tile<'a> {
                     continue;
                 }
                 let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
-                self.hair_fragment(k, depth, alpha, pw, t.tangent, Fiber::NONE, None);
+                if self.samples.is_some() {
+                    // Alpha to coverage: a sample is covered when a hash of
+                    // (triangle, pixel, sample) falls below alpha, so
+                    // overlapping cards cover independently.
+                    let (gx, gy) = (self.x0 + (k as u32 % TILE), self.y0 + (k as u32 / TILE));
+                    let seed = ti.wrapping_mul(0x2C1B_3C6D)
+                        ^ gx.wrapping_mul(0x297A_2D39)
+                        ^ gy.wrapping_mul(0x9E37_79B1);
+                    let mut s = 0u32;
+                    self.sampled_fragment(k, depth, pw, t.tangent, Fiber::NONE, None, |_| {
+                        s += 1;
+                        unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha
+                    });
+                } else {
+                    self.hair_fragment(k, depth, alpha, pw, t.tangent, Fiber::NONE, None);
+                }
             }
         }
     }
@@ -301,6 +378,10 @@ impl<'a> Tile<'a> {
     /// The collected fragments, shaded in one batch and composited in the
     /// order they were produced.
     fn shade_pending(&mut self) {
+        if self.samples.is_some() {
+            self.shade_visible();
+            return;
+        }
         if !self.deferred {
             return;
         }
@@ -314,13 +395,69 @@ impl<'a> Tile<'a> {
         }
     }
 
-    /// The layers composited over the opaque radiance; non-finite pixels
-    /// become 0 and are counted.
+    /// Coverage mode: the fragments that own a sample, shaded (in one batch
+    /// where the model has a vector kernel); the others are never shaded.
+    fn shade_visible(&mut self) {
+        let Some((_, buf)) = &self.samples else {
+            return;
+        };
+        let p = &mut self.pending;
+        let mut counts = vec![0u32; p.k.len()];
+        buf.counts(&mut counts);
+        if self.ctx.opts.vertex_shading {
+            return;
+        }
+        let visible: Vec<usize> = (0..counts.len()).filter(|&i| counts[i] > 0).collect();
+        let eye = self.ctx.view.eye;
+        if self.ctx.shader.batches() {
+            let pts: Vec<Vec3> = visible.iter().map(|&i| p.p[i]).collect();
+            let tan: Vec<Vec3> = visible.iter().map(|&i| p.t[i]).collect();
+            let fib: Vec<Fiber> = visible.iter().map(|&i| p.fiber[i]).collect();
+            let mut colors = vec![Vec3::ZERO; visible.len()];
+            self.ctx
+                .shader
+                .shade_serial(&pts, &tan, &fib, eye, &mut colors);
+            for (&i, c) in visible.iter().zip(colors) {
+                p.color[i] = c;
+            }
+        } else {
+            for &i in &visible {
+                p.color[i] = self.ctx.shader.shade(
+                    p.p[i],
+                    p.t[i],
+                    (eye - p.p[i]).normalize_or_zero(),
+                    p.fiber[i],
+                );
+            }
+        }
+    }
+
+    /// Pixel `k`: the layers composited over the opaque radiance, or in
+    /// coverage mode the mean over its samples of the owner's radiance
+    /// (the opaque radiance where no hair covers a sample).
+    fn pixel(&mut self, k: usize) -> Vec3 {
+        match &self.samples {
+            Some((_, buf)) => {
+                let mut c = Vec3::ZERO;
+                for o in buf.owners(k) {
+                    c += match o {
+                        Some(i) => self.pending.color[i as usize],
+                        None => self.base[k],
+                    };
+                }
+                c / buf.n as f32
+            }
+            None => self.layers.resolve(k, self.base[k]),
+        }
+    }
+
+    /// The pixels resolved; non-finite pixels become 0 and are counted.
     fn resolve(mut self) -> TileResult {
         let mut pixels = vec![0.0f32; (TILE * TILE * 3) as usize];
         let mut non_finite = 0u64;
-        for k in self.pixel_indices() {
-            let col = self.layers.resolve(k, self.base[k]);
+        let ks: Vec<usize> = self.pixel_indices().collect();
+        for k in ks {
+            let col = self.pixel(k);
             if col.is_finite() {
                 pixels[3 * k..3 * k + 3].copy_from_slice(&col.to_array());
             } else {
@@ -346,6 +483,8 @@ struct Pending {
     p: Vec<Vec3>,
     t: Vec<Vec3>,
     fiber: Vec<Fiber>,
+    /// Radiance (coverage mode: per-vertex radiance, or filled by shading).
+    color: Vec<Vec3>,
 }
 
 impl Pending {

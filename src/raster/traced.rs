@@ -171,12 +171,28 @@ impl SegmentGrid {
 }
 
 /// Whether the ray (o, unit d, t in (0, t_max]) meets the capsule: its
-/// closest approach to the segment is within the radius.
+/// closest approach to the segment is within the radius, and its origin is
+/// outside the capsule.
 #[inline]
 fn hits_capsule(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> bool {
     // Closest points between the ray and the segment (Ericson, 5.1.9).
     let u = s.b - s.a;
     let w = o - s.a;
+    // A ray that starts inside the capsule leaves it unblocked: a point on
+    // a visible fiber surface never lies inside another fiber (the camera
+    // would have met that fiber first), so an origin inside one comes from
+    // fibers that interpenetrate, or from a scalp point at a root. Counting
+    // such capsules as occluders darkened a dense 10k-strand head lit from
+    // above by 7 % against Mitsuba's direct light.
+    let c = u.dot(u);
+    let t0 = if c > 0.0 {
+        (u.dot(w) / c).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    if (w - u * t0).length_squared() <= s.r * s.r {
+        return false;
+    }
     let (a, b, c) = (1.0, d.dot(u), u.dot(u));
     let (dd, e) = (d.dot(w), u.dot(w));
     let den = a * c - b * b;
@@ -253,12 +269,20 @@ mod tests {
                 strand: u32::MAX - 1,
                 segment: 0,
             };
+            // Capsules holding the origin do not block (brute force: the
+            // gap at t = 0).
             let gaps: Vec<f32> = grid
                 .segments
                 .iter()
+                .filter(|c| ray_segment_gap(o, d, 0.0, c) > c.r)
                 .map(|c| ray_segment_gap(o, d, f32::INFINITY, c) - c.r)
                 .collect();
-            if gaps.iter().any(|g| g.abs() < 2e-4) {
+            if gaps.iter().any(|g| g.abs() < 2e-4)
+                || grid
+                    .segments
+                    .iter()
+                    .any(|c| (ray_segment_gap(o, d, 0.0, c) - c.r).abs() < 2e-4)
+            {
                 continue;
             }
             let want = gaps.iter().any(|&g| g < 0.0);
@@ -274,5 +298,39 @@ mod tests {
             checked > 2500 && hits > 300 && hits < checked - 300,
             "{hits} of {checked}"
         );
+    }
+
+    /// 2. A ray from inside a capsule is not blocked by it, and is by a
+    ///    capsule it meets farther on.
+    #[test]
+    fn t02_origin_inside_leaves_unblocked() {
+        let seg = |z: f32, strand| WorldSegment {
+            a: Vec3::new(-1.0, 0.0, z),
+            b: Vec3::new(1.0, 0.0, z),
+            ra: 0.1,
+            rb: 0.1,
+            strand,
+        };
+        let own = Fiber {
+            radius: 0.0,
+            strand: u32::MAX - 1,
+            segment: 0,
+        };
+        let o = Vec3::new(0.0, 0.05, 0.0);
+        let up = Vec3::Y;
+        let inside = SegmentGrid::new(&[seg(0.0, 0)]).unwrap();
+        assert!(!inside.occluded(o, up, f32::INFINITY, &own));
+        assert!(!inside.occluded(o, -up, f32::INFINITY, &own));
+        let above = SegmentGrid::new(&[
+            seg(0.0, 0),
+            WorldSegment {
+                a: Vec3::new(-1.0, 0.5, 0.0),
+                b: Vec3::new(1.0, 0.5, 0.0),
+                ..seg(0.0, 1)
+            },
+        ])
+        .unwrap();
+        assert!(above.occluded(o, up, f32::INFINITY, &own));
+        assert!(!above.occluded(o, -up, f32::INFINITY, &own));
     }
 }
