@@ -12,9 +12,14 @@ model's converged f64 reference:
   quadrature;
 - ChiangHair near and far field against their own f64 evaluation (the f32
   rounding; f64 rows have error 0 by definition);
-- Mitsuba's ``hair`` (``llvm_ad_rgb`` when available) against ChiangHair's
-  f64 near field with Mitsuba's I0 (float32 arithmetic; the exact-I0
-  difference is reported by ``hairshade validate``).
+- Mitsuba's ``hair`` against ChiangHair's f64 near field with Mitsuba's I0
+  (float32 arithmetic; the exact-I0 difference is reported by
+  ``hairshade validate``), timed the fastest honest ways, each calling
+  Mitsuba's ``BSDF.eval`` directly (see :func:`mitsuba_cases`): "numpy to
+  numpy" (contiguous float32 columns into drjit, the result back into
+  numpy) and "data resident" (inputs already in drjit arrays; the timer stops
+  after ``dr.eval`` and ``dr.sync_thread``), with ``llvm_ad_rgb`` (JIT, SIMD,
+  all cores) and, where a GPU is present, ``cuda_ad_rgb``.
 """
 
 from __future__ import annotations
@@ -85,24 +90,24 @@ def bsdf_runtime_vs_error(n: int = 1 << 20, repeats: int = 3, fast: bool = False
             err = 0.0 if hs_n is None else _rel_l2(sum(d.eval_lobes(L, V, T).values()), deon_sum)
             add("DEonHair", "converged" if hs_n is None else f"h_samples={hs_n}", "f64",
                 lambda d=d: d.eval(wi_s, wo_s, T1), n_slow, err)
-    try:
-        from .mitsuba import MitsubaHair
-
-        cm = ChiangHair(longitudinal_roughness=0.3, azimuthal_roughness=0.3, i0="mitsuba")
-        mh = MitsubaHair(cm, variant)
-        add("Mitsuba hair", mh.variant, "f32", lambda: mh.eval(wi, wo), n, _rel_l2(mh.eval(L, V), cm.eval(L, V)))
-    except ImportError:
-        pass
+    cm = ChiangHair(longitudinal_roughness=0.3, azimuthal_roughness=0.3, i0="mitsuba")
+    for var, path, fn in mitsuba_cases(cm, wi, wo, variant):
+        add("Mitsuba hair", f"{var} {path}", "f32", fn, n, mitsuba_error(cm, var, L, V))
 
     rows: list[dict[str, Any]] = []
     for threads in ("all", "1"):
         _native.set_single_threaded(threads == "1")
         try:
-            for _, fn, _, _ in cases:  # warm-up
-                fn()
+            # Mitsuba's own thread pool is not ours to limit: its rows run in the all-threads pass only
+            run = [threads == "all" or meta["model"] != "Mitsuba hair" for meta, _, _, _ in cases]
+            for (_, fn, _, _), on in zip(cases, run):  # warm-up (JIT compilation, thread pools)
+                if on:
+                    fn()
             best = [np.inf] * len(cases)
             for _ in progress(range(repeats), desc=f"bench ({threads} threads)", enabled=progress_bar):
                 for i, (_, fn, _, _) in enumerate(cases):
+                    if not run[i]:
+                        continue
                     t0 = time.perf_counter()
                     fn()
                     best[i] = min(best[i], time.perf_counter() - t0)
@@ -110,10 +115,78 @@ def bsdf_runtime_vs_error(n: int = 1 << 20, repeats: int = 3, fast: bool = False
             _native.set_single_threaded(False)
         for (meta, _, count, err), t in zip(cases, best):
             if meta["model"] == "Mitsuba hair" and threads == "1":
-                continue  # Mitsuba's own thread pool is not ours to limit
+                continue
             rows.append(dict(**meta, threads=threads if meta["model"] != "Mitsuba hair" else "mitsuba",
                              evals_per_s=count / t, rel_l2_error=err))
     return rows
+
+
+MITSUBA_PATHS = ("numpy to numpy", "data resident")
+
+
+def mitsuba_cases(model: ChiangHair, wi: np.ndarray, wo: np.ndarray,
+                  variant: str | None = None) -> list[tuple[str, str, Callable[[], Any]]]:
+    """(variant, path, timed call) of Mitsuba's own ``hair.eval`` on the
+    pairs (wi, wo), for ``llvm_ad_rgb`` (or ``variant``) and ``cuda_ad_rgb``
+    when a GPU is present (skipped otherwise):
+
+    - "numpy to numpy": the float32 columns of wi and wo (contiguous, made
+      before timing) into drjit ``Vector3f``, ``eval``, and the (3, N)
+      result back into numpy;
+    - "data resident": wi and wo already in drjit arrays (evaluated before
+      timing); ``eval`` then ``dr.eval`` and ``dr.sync_thread`` so the
+      kernel has run when the timer stops.
+    """
+    from .mitsuba import default_variant, hair_dict
+
+    import drjit as dr
+    import mitsuba as mi
+
+    variants = [variant or default_variant()]
+    if "cuda_ad_rgb" in mi.variants() and "cuda_ad_rgb" not in variants:
+        try:
+            mi.set_variant("cuda_ad_rgb")
+            dr.eval(mi.Float(1.0))  # raises without a usable GPU
+            variants.append("cuda_ad_rgb")
+        except Exception:  # no GPU or no CUDA driver: no cuda rows
+            pass
+    cols = [np.ascontiguousarray(a[:, k], dtype=np.float32) for a in (wi, wo) for k in range(3)]
+    cases: list[tuple[str, str, Callable[[], Any]]] = []
+    for var in variants:
+        if var.startswith("scalar"):
+            continue  # a Python loop per pair: not a batch evaluation
+        mi.set_variant(var)
+        bsdf = mi.load_dict(hair_dict(model))
+        ctx = mi.BSDFContext()
+
+        def numpy_to_numpy(var: str = var, bsdf: Any = bsdf, ctx: Any = ctx) -> np.ndarray:
+            mi.set_variant(var)
+            si = dr.zeros(mi.SurfaceInteraction3f, len(cols[0]))
+            si.wi = mi.Vector3f(cols[0], cols[1], cols[2])
+            return np.array(bsdf.eval(ctx, si, mi.Vector3f(cols[3], cols[4], cols[5])))
+
+        si = dr.zeros(mi.SurfaceInteraction3f, len(cols[0]))
+        si.wi = mi.Vector3f(cols[0], cols[1], cols[2])
+        wo_dr = mi.Vector3f(cols[3], cols[4], cols[5])
+        dr.eval(si, wo_dr)
+        dr.sync_thread()
+
+        def resident(var: str = var, bsdf: Any = bsdf, ctx: Any = ctx, si: Any = si, wo_dr: Any = wo_dr) -> Any:
+            mi.set_variant(var)
+            v = bsdf.eval(ctx, si, wo_dr)
+            dr.eval(v)
+            dr.sync_thread()
+            return v
+
+        cases += [(var, MITSUBA_PATHS[0], numpy_to_numpy), (var, MITSUBA_PATHS[1], resident)]
+    return cases
+
+
+def mitsuba_error(model: ChiangHair, variant: str, L: np.ndarray, V: np.ndarray) -> float:
+    """Relative L2 of Mitsuba's ``hair`` (``variant``) against ``model`` in f64 on (L, V)."""
+    from .mitsuba import MitsubaHair
+
+    return _rel_l2(MitsubaHair(model, variant).eval(L, V), model.eval(L, V))
 
 
 def pareto(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:

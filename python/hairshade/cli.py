@@ -62,7 +62,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     tp = validation.throughput(variant=args.variant)
     base = tp["hairshade f32"]
     for k, v in tp.items():
-        print(f"  {k:26s} {v / 1e6:8.2f} M/s   ({v / base:5.2f} x hairshade f32)")
+        print(f"  {k:40s} {v / 1e6:8.2f} M/s   ({v / base:5.2f} x hairshade f32)")
     ok = worst_cond <= 1e-4
     print("\nvalidate:", "OK" if ok else "FAILED")
     return 0 if ok else 1
@@ -91,9 +91,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
         rows = benchmark.bsdf_runtime_vs_error(n=args.n, repeats=args.repeats, fast=args.fast, variant=args.variant,
                                                progress_bar=not args.no_progress)
         print(f"BSDF run time against error ({args.n} pairs, best of {args.repeats}; error: rel. L2 vs converged f64 reference)")
-        print(f"{'model':14s} {'variant':16s} {'prec':4s} {'threads':8s} {'M evals/s':>10s} {'rel L2 err':>11s}")
+        print(f"{'model':14s} {'variant':28s} {'prec':4s} {'threads':8s} {'M evals/s':>10s} {'rel L2 err':>11s}")
         for r in rows:
-            print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['threads']:8s} "
+            print(f"{r['model']:14s} {r['variant']:28s} {r['precision']:4s} {r['threads']:8s} "
                   f"{r['evals_per_s'] / 1e6:10.3f} {r['rel_l2_error']:11.3e}")
         if args.csv:
             benchmark.write_csv(rows, args.csv)
