@@ -205,28 +205,37 @@ def write_csv(rows: list[dict[str, Any]], path: str) -> None:
             f.write(",".join(str(r[k]) if not isinstance(r[k], float) else f"{r[k]:.6g}" for k in keys) + "\n")
 
 
+MARKERS = {"KarisHair": "o", "ChiangHair": "s", "DEonHair": "D", "Mitsuba hair": "^"}
+
+
 def plot(rows: list[dict[str, Any]], path: str) -> None:
+    """Evaluations per second against error, one marker per row with an
+    error (a colour of matplotlib's 20-colour table per row, a shape per
+    model), named in a legend beside the axes (no labels on the points, so
+    none overlap), and the Pareto front."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = plt.subplots(figsize=(11, 5.5))
     floor = 1e-9  # errors of exactly 0 (f64 references) drawn at the floor
-    for r in rows:
-        if not np.isfinite(r["rel_l2_error"]):
-            continue
-        marker = "o" if r["threads"] == "all" else ("s" if r["threads"] == "1" else "^")
-        ax.scatter(r["evals_per_s"], max(r["rel_l2_error"], floor), marker=marker, s=25)
-        ax.annotate(f"{r['model']} {r['variant']} {r['precision']} ({r['threads']})", (r["evals_per_s"], max(r["rel_l2_error"], floor)),
-                    fontsize=6, xytext=(3, 2), textcoords="offset points")
+    colors = plt.get_cmap("tab20").colors
+    shown = [r for r in rows if np.isfinite(r["rel_l2_error"])]
+    for i, r in enumerate(shown):
+        threads = {"all": "all threads", "1": "1 thread", "mitsuba": "Mitsuba's threads"}.get(r["threads"], r["threads"])
+        ax.scatter(r["evals_per_s"], max(r["rel_l2_error"], floor), marker=MARKERS.get(r["model"], "v"), s=30,
+                   color=colors[i % len(colors)], edgecolors="none",
+                   label=f"{r['model']} {r['variant']} {r['precision']}, {threads}")
     front = sorted(pareto(rows), key=lambda r: r["evals_per_s"])
-    ax.plot([r["evals_per_s"] for r in front], [max(r["rel_l2_error"], floor) for r in front], "k--", lw=0.8, label="Pareto front")
+    ax.plot([r["evals_per_s"] for r in front], [max(r["rel_l2_error"], floor) for r in front], "k--", lw=0.8,
+            label="Pareto front")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("evaluations per second")
-    ax.set_ylabel("relative L2 error vs converged f64 reference")
-    ax.legend(fontsize=8)
+    ax.set_ylabel(f"relative L2 error vs converged f64 reference (0 drawn at {floor:g})")
+    ax.grid(True, which="major", lw=0.3, alpha=0.5)
+    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, ncol=1 if len(shown) <= 34 else 2)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
