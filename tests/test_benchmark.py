@@ -35,9 +35,9 @@ def test_bench_rows_csv_and_pareto(tmp_path):
 
 def test_bench_plot_draws_every_row(tmp_path):
     """The PNG decodes to the figure's size (11 x 5.5 in at 130 dpi, saved
-    without cropping) and shows one marker per row with an error, each in
-    its own colour of matplotlib's 20-colour table (row i: colour i), in the
-    axes and in the legend: 100 to 121 pixels of each row's exact colour
+    without cropping) and shows one marker per row with an error, each
+    (model, variant, precision) in its own colour of matplotlib's 20-colour
+    table (row i: colour i), in the axes and in the legend: 100 to 121 pixels of each row's exact colour
     (measured, marker and legend handle), so 50 per row is required. The
     greys (table entries 14, 15) are not checked: the figure has other
     pixels of similar greys."""

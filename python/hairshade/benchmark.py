@@ -208,25 +208,32 @@ def write_csv(rows: list[dict[str, Any]], path: str) -> None:
 MARKERS = {"KarisHair": "o", "ChiangHair": "s", "DEonHair": "D", "Mitsuba hair": "^"}
 
 
-def plot(rows: list[dict[str, Any]], path: str) -> None:
-    """Evaluations per second against error, one marker per row with an
-    error (a colour of matplotlib's 20-colour table per row, a shape per
-    model), named in a legend beside the axes (no labels on the points, so
-    none overlap), and the Pareto front."""
+def plot(rows: list[dict[str, Any]], path: str, dpi: int = 130) -> None:
+    """Evaluations per second against error: one colour per (model,
+    variant, precision) in order of appearance (matplotlib's 20-colour
+    table, then tab20b), a shape per model, filled on all threads (or
+    Mitsuba's) and hollow on one; a legend beside the axes names each
+    colour (no labels on the points, so none overlap); the Pareto front."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     fig, ax = plt.subplots(figsize=(11, 5.5))
     floor = 1e-9  # errors of exactly 0 (f64 references) drawn at the floor
-    colors = plt.get_cmap("tab20").colors
-    shown = [r for r in rows if np.isfinite(r["rel_l2_error"])]
-    for i, r in enumerate(shown):
-        threads = {"all": "all threads", "1": "1 thread", "mitsuba": "Mitsuba's threads"}.get(r["threads"], r["threads"])
+    colors = list(plt.get_cmap("tab20").colors) + list(plt.get_cmap("tab20b").colors)
+    keys: dict[tuple[str, str, str], int] = {}
+    for r in rows:
+        if not np.isfinite(r["rel_l2_error"]):
+            continue
+        key = (r["model"], r["variant"], r["precision"])
+        first = key not in keys
+        c = colors[keys.setdefault(key, len(keys)) % len(colors)]
+        hollow = r["threads"] == "1"
         ax.scatter(r["evals_per_s"], max(r["rel_l2_error"], floor), marker=MARKERS.get(r["model"], "v"), s=30,
-                   color=colors[i % len(colors)], edgecolors="none",
-                   label=f"{r['model']} {r['variant']} {r['precision']}, {threads}")
+                   facecolors="none" if hollow else [c], edgecolors=[c] if hollow else "none",
+                   label=" ".join(key) if first else None)
     front = sorted(pareto(rows), key=lambda r: r["evals_per_s"])
     ax.plot([r["evals_per_s"] for r in front], [max(r["rel_l2_error"], floor) for r in front], "k--", lw=0.8,
             label="Pareto front")
@@ -235,7 +242,11 @@ def plot(rows: list[dict[str, Any]], path: str) -> None:
     ax.set_xlabel("evaluations per second")
     ax.set_ylabel(f"relative L2 error vs converged f64 reference (0 drawn at {floor:g})")
     ax.grid(True, which="major", lw=0.3, alpha=0.5)
-    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, ncol=1 if len(shown) <= 34 else 2)
+    handles, labels = ax.get_legend_handles_labels()
+    for text, fill in (("filled: all threads (Mitsuba: its own)", "grey"), ("hollow: 1 thread", "none")):
+        handles.append(Line2D([], [], ls="", marker="o", markerfacecolor=fill, markeredgecolor="grey"))
+        labels.append(text)
+    ax.legend(handles, labels, fontsize=6.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
