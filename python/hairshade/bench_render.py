@@ -312,7 +312,7 @@ def read_csv(path: str) -> list[dict[str, Any]]:
     return rows
 
 
-def plot(rows: list[dict[str, Any]], path: str) -> None:
+def plot(rows: list[dict[str, Any]], path: str, dpi: int = 130) -> None:
     """Left: time against error per scene (Mitsuba's spp sweep as a line,
     the rasterizer as a star). Right: ms/frame against strand count."""
     import matplotlib
@@ -345,5 +345,5 @@ def plot(rows: list[dict[str, Any]], path: str) -> None:
         bx.set_xlabel(f"strands (16 segments), {s[0]['width']}x{s[0]['height']}")
         bx.set_ylabel("ms per frame")
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
