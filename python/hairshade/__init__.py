@@ -32,11 +32,9 @@ def examples() -> list[str]:
 
 
 def __getattr__(name: str) -> Any:
-    # hairshade.mapping needs scipy: imported on first use, not by `import hairshade`.
+    # hairshade.mapping needs scipy: imported on first use, not by `import hairshade`
+    # (without scipy it raises MissingExtra naming hairshade[mapping]).
     if name == "mapping":
-        from . import _extras
-
-        _extras.check(["scipy"], "hairshade.mapping")
         import importlib
 
         return importlib.import_module(".mapping", __name__)
