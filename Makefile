@@ -19,8 +19,13 @@ run: build
 	$(PY) -m hairshade validate
 	$(PY) -m hairshade demo
 
+# cargo test builds the crate without the `python` feature; in maturin's
+# target directory that would overwrite the extension's build and make the
+# next `make run` (maturin) rebuild it from scratch, so it has its own.
+CARGO_TEST_DIR := target/cargo-test
+
 test: build
-	cargo test --release --all-targets
+	CARGO_TARGET_DIR=$(CARGO_TEST_DIR) cargo test --release --all-targets
 	$(PY) -m pytest -q tests --nbmake notebooks
 
 $(STAMP): requirements-dev.txt

@@ -1,5 +1,12 @@
-"""Writes notebooks/lobes.ipynb from the cells below (the notebook is
-committed; edit here and rerun to change it)."""
+"""Writes notebooks/lobes.ipynb and notebooks/runtime_vs_error.ipynb from
+the cells below (the notebooks are committed; edit here and rerun to change
+them). With --execute they are run first (nbclient, in notebooks/) and
+committed with their outputs, figures as small PNGs (50 dpi).
+
+    python scripts/make_notebooks.py --execute
+"""
+
+import sys
 
 import nbformat as nbf
 
@@ -19,6 +26,8 @@ code("""import numpy as np
 import matplotlib.pyplot as plt
 import hairshade as hs
 from hairshade import lobes, mapping
+
+plt.rcParams["figure.dpi"] = 50  # small PNG outputs in the committed notebook
 
 T = np.array([0.0, 1.0, 0.0])
 
@@ -134,6 +143,11 @@ def write(path, cells):
     nb = nbf.v4.new_notebook()
     nb["cells"] = cells
     nb["metadata"]["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    if "--execute" in sys.argv:
+        from nbclient import NotebookClient
+
+        NotebookClient(nb, timeout=900, resources={"metadata": {"path": "notebooks"}}).execute()
+        nb["metadata"].pop("widgets", None)
     nbf.write(nb, path)
     print(f"wrote {path}")
 
@@ -166,17 +180,14 @@ with open(path) as f:
 print(f"{len(full)} rows from {path}")
 for r in full:
     if r["threads"] in ("all", "mitsuba"):
-        print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['evals_per_s'] / 1e6:8.3f} M/s   err {r['rel_l2_error']:.2e}")""")
-md("## The Pareto front (committed full run)")
-code("""fig, ax = plt.subplots(figsize=(8, 5))
-floor = 1e-9
-for r in full:
-    if np.isfinite(r["rel_l2_error"]) and r["threads"] != "1":
-        ax.scatter(r["evals_per_s"], max(r["rel_l2_error"], floor), s=20)
-        ax.annotate(f"{r['model']} {r['variant']} {r['precision']}", (r["evals_per_s"], max(r["rel_l2_error"], floor)), fontsize=6)
-front = sorted(benchmark.pareto([r for r in full if r["threads"] != "1"]), key=lambda r: r["evals_per_s"])
-ax.plot([r["evals_per_s"] for r in front], [max(r["rel_l2_error"], floor) for r in front], "k--", lw=0.8)
-ax.set_xscale("log"); ax.set_yscale("log"); ax.set_xlabel("evaluations / s"); ax.set_ylabel("rel. L2 error");""")
+        print(f"{r['model']:14s} {r['variant']:28s} {r['precision']:4s} {r['evals_per_s'] / 1e6:8.3f} M/s   err {r['rel_l2_error']:.2e}")""")
+md("## The Pareto front (committed full run, all-threads rows)")
+code("""import tempfile
+from IPython.display import Image
+
+png = os.path.join(tempfile.mkdtemp(), "bench_bsdf.png")
+benchmark.plot([r for r in full if r["threads"] != "1"], png, dpi=60)
+Image(png)""")
 md("## Thread scaling (committed full run)")
 code("""by = {}
 for r in full:
@@ -188,7 +199,7 @@ md("## A fast re-measurement")
 code("""rows = benchmark.bsdf_runtime_vs_error(n=1 << 14, repeats=1, fast=True, progress_bar=False)
 for r in rows:
     if r["threads"] != "1":
-        print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['evals_per_s'] / 1e6:8.3f} M/s   err {r['rel_l2_error']:.2e}")""")
+        print(f"{r['model']:14s} {r['variant']:28s} {r['precision']:4s} {r['evals_per_s'] / 1e6:8.3f} M/s   err {r['rel_l2_error']:.2e}")""")
 md("""## Rendering: time against error (committed full run)
 
 Left: Mitsuba's spp sweep (a line per scene, labelled by spp) and the
@@ -198,10 +209,8 @@ code("""from hairshade import bench_render
 rpath = path.replace("bench_bsdf.csv", "bench_render.csv")
 rfull = bench_render.read_csv(rpath)
 print(bench_render.summary(rfull))
-import tempfile
-from IPython.display import Image
 png = os.path.join(tempfile.mkdtemp(), "bench_render.png")
-bench_render.plot(rfull, png)
+bench_render.plot(rfull, png, dpi=60)
 Image(png)""")
 md("## A fast re-measurement of the rendering part")
 code("""rfast = bench_render.render_runtime_vs_error(fast=True, repeats=1, progress_bar=False)

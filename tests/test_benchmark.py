@@ -34,48 +34,24 @@ def test_bench_rows_csv_and_pareto(tmp_path):
 
 
 def test_bench_plot_draws_every_row(tmp_path):
-    """The PNG decodes to the figure's size (8 x 5 in at 130 dpi, saved
-    without cropping) and shows one marker per row with an error: points
-    take the colours of matplotlib's 10-colour cycle in turn, so with 12
-    rows C0 and C1 mark two points and C2..C9 one. A marker (25 pt^2, ~9 px
-    across) is 69 pixels of its exact colour here (measured; these points
-    are far apart), so 50 per marker is required. C7 (grey 127) is not
-    checked: other parts of the figure have 85 pixels of that grey with no
-    C7 marker drawn (measured)."""
-    import matplotlib.colors
+    """The PNG decodes to the figure's size (11 x 5.5 in at 130 dpi, saved
+    without cropping) and shows one marker per row with an error, each
+    (model, variant, precision) in its own colour of matplotlib's 20-colour
+    table (row i: colour i), in the axes and in the legend: 100 to 121 pixels of each row's exact colour
+    (measured, marker and legend handle), so 50 per row is required. The
+    greys (table entries 14, 15) are not checked: the figure has other
+    pixels of similar greys."""
     import matplotlib.pyplot as plt
 
-    rows = [dict(model="M", variant=f"v{i}", precision="f32", threads="all", evals_per_s=10.0 ** (3 + i / 2),
-                 rel_l2_error=10.0 ** -i) for i in range(12)]
+    rows = [dict(model="KarisHair", variant=f"v{i}", precision="f32", threads="all", evals_per_s=10.0 ** (3 + i / 2),
+                 rel_l2_error=10.0 ** -i) for i in range(14)]
     rows.append(dict(rows[0], variant="no error", rel_l2_error=float("nan")))  # skipped, not drawn
     benchmark.plot(rows, tmp_path / "b.png")
     img = plt.imread(tmp_path / "b.png")
-    assert img.shape[:2] == (5 * 130, 8 * 130)
+    assert img.shape[:2] == (round(5.5 * 130), 11 * 130)
     px = np.round(img[..., :3] * 255).astype(int)
-    for i in (0, 1, 2, 3, 4, 5, 6, 8, 9):
-        colour = np.round(np.array(matplotlib.colors.to_rgb(f"C{i}")) * 255).astype(int)
-        markers = 2 if i < 2 else 1
+    colors = plt.get_cmap("tab20").colors
+    for i in range(14):
+        colour = np.round(np.array(colors[i]) * 255).astype(int)
         count = int(np.all(px == colour, axis=-1).sum())
-        assert count >= 50 * markers, f"C{i}: {count} pixels for {markers} marker(s)"
-
-
-def test_equal_error_ratio_interpolates_and_bounds():
-    from hairshade.bench_render import equal_error_ratio
-
-    # Mitsuba (ms, relMSE) at increasing spp; error 1/spp, time = spp ms.
-    pts = [(1.0, 1.0), (4.0, 0.25), (16.0, 0.0625)]
-    r, kind = equal_error_ratio(2.0, 0.5, pts)  # error 0.5 is reached at 2 spp = 2 ms
-    assert kind == "interpolated" and abs(r - 1.0) < 1e-12
-    assert equal_error_ratio(2.0, 2.0, pts) == (0.5, "<=")  # 1 spp already better
-    assert equal_error_ratio(2.0, 0.01, pts) == (8.0, ">=")  # 16 spp not enough
-
-
-def test_render_bench_csv_round_trip(tmp_path):
-    from hairshade import bench_render
-
-    rows = [bench_render._row("frame", "s", "cold", 64, 36, ms=1.5),
-            bench_render._row("mitsuba", "s", "mitsuba (chiang)", 64, 36, "mitsuba", 4, 2.0, 0.1)]
-    bench_render.write_csv(rows, tmp_path / "r.csv")
-    back = bench_render.read_csv(tmp_path / "r.csv")
-    assert [(r["section"], r["spp"], r["ms"]) for r in back] == [("frame", 0, 1.5), ("mitsuba", 4, 2.0)]
-    assert "Rasterizer ms/frame" in bench_render.summary(back)
+        assert count >= 50, f"row {i}: {count} pixels of its colour"

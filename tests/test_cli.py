@@ -29,3 +29,57 @@ def test_errors_exit_2(tmp_path):
     bad.write_text('{"hairshade_scene": 1, "camera": {"position": [0,0,1], "target": [0,0,0], "fov": -3}}')
     r = run("render", str(bad))
     assert r.returncode == 2 and "camera.fov: must be in" in r.stderr
+
+
+# Optional dependencies made unimportable in the child process: None in
+# sys.modules makes `import x` fail and importlib.util.find_spec(x) None.
+OPTIONAL = ["mitsuba", "drjit", "scipy", "matplotlib", "flip_evaluator", "tqdm"]
+
+
+def run_without(missing, *args):
+    code = ("import sys\n"
+            f"for m in {list(missing)!r}: sys.modules[m] = None\n"
+            "from hairshade.cli import main\n"
+            f"sys.exit(main({list(args)!r}))")
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+
+
+def one_line_naming(r, extra):
+    """Exit code 2 and a single stderr line that says what to install."""
+    lines = r.stderr.strip().splitlines()
+    return r.returncode == 2 and len(lines) == 1 and f"pip install 'hairshade[{extra}]'" in lines[0]
+
+
+def test_missing_extras_one_line_before_any_work(tmp_path):
+    img = tmp_path / "a.exr"
+    assert run_without(OPTIONAL, "render", str(EXAMPLES / "single_strand.json"), "-o", str(img), "--width", "64").returncode == 0
+    cases = [
+        (["mitsuba", "drjit"], ["validate"], "mitsuba"),
+        (["mitsuba"], ["bench", "--bsdf-only", "--n", "256", "--out", str(tmp_path / "b")], "mitsuba"),
+        (["matplotlib"], ["bench", "--n", "256", "--plot", str(tmp_path / "p.png")], "plot"),
+        (["scipy"], ["tables", "--out", str(tmp_path / "t")], "mapping"),
+        (["flip_evaluator"], ["compare", str(img), str(img)], "flip"),
+        (["flip_evaluator"], ["demo", "--out", str(tmp_path / "d")], "mitsuba,flip"),
+        (OPTIONAL, ["demo", "--out", str(tmp_path / "d")], "mitsuba,flip"),
+    ]
+    for missing, args, extra in cases:
+        r = run_without(missing, *args)
+        assert one_line_naming(r, extra), (args, r.returncode, r.stderr)
+        assert "nan" not in r.stdout and r.stdout == "", (args, r.stdout)  # nothing ran
+    assert not any((tmp_path / d).exists() for d in ("b", "t", "d", "p.png"))  # nothing written
+
+
+def test_compare_without_flip_reports_relmse_only(tmp_path):
+    img = tmp_path / "a.exr"
+    assert run("render", str(EXAMPLES / "single_strand.json"), "-o", str(img), "--width", "64").returncode == 0
+    r = run_without(["flip_evaluator"], "compare", str(img), str(img), "--no-flip")
+    assert r.returncode == 0 and "relMSE 0.0000e+00" in r.stdout and "nan" not in r.stdout.lower()
+
+
+def test_mapping_is_an_attribute_and_says_what_it_needs():
+    r = subprocess.run([sys.executable, "-c", "import hairshade as hs; print(hs.mapping.to_chiang(hs.KarisHair(), fit=False))"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.startswith("ChiangHair("), r.stderr
+    r = subprocess.run([sys.executable, "-c", "import sys; sys.modules['scipy'] = None\nimport hairshade as hs\nhs.mapping"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode != 0 and "hairshade.mapping needs scipy: pip install 'hairshade[mapping]'" in r.stderr

@@ -1,4 +1,4 @@
-"""Every script in examples/ runs."""
+"""Every script in examples/ runs; every example scene renders and ships with the package."""
 
 import pathlib
 import subprocess
@@ -36,3 +36,18 @@ def test_example_scene_renders(scene):
 
 def test_there_are_example_scenes():
     assert len(SCENES) >= 5
+
+
+def test_example_scenes_ship_with_the_package():
+    """hs.examples() lists the scene files inside the installed package
+    (examples/ in the repository points there), each loadable."""
+    import os
+
+    import hairshade as hs
+
+    paths = hs.examples()
+    assert [os.path.basename(p) for p in paths] == [p.name for p in SCENES]
+    pkg = os.path.dirname(os.path.abspath(hs.__file__))
+    for p in paths:
+        assert os.path.commonpath([pkg, p]) == pkg
+        assert hs.Scene.load(p).strand_count > 0 or hs.Scene.load(p).cards is not None

@@ -6,6 +6,11 @@
 (3,)
 """
 
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING, Any
+
 from . import lobes
 from ._native import __version__, num_threads
 from .chiang import ChiangHair
@@ -14,7 +19,29 @@ from .karis import KarisHair
 from .render import read_exr, rel_mse, render, side_by_side, write_exr, write_png
 from .scene import Scene, SceneError
 
+if TYPE_CHECKING:
+    from . import mapping
+
+EXAMPLES_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "examples")
+
+
+def examples() -> list[str]:
+    """Paths of the example scene files shipped with the package (sorted),
+    each loadable with :meth:`Scene.load`."""
+    return sorted(os.path.join(EXAMPLES_DIR, f) for f in os.listdir(EXAMPLES_DIR) if f.endswith(".json"))
+
+
+def __getattr__(name: str) -> Any:
+    # hairshade.mapping needs scipy: imported on first use, not by `import hairshade`
+    # (without scipy it raises MissingExtra naming hairshade[mapping]).
+    if name == "mapping":
+        import importlib
+
+        return importlib.import_module(".mapping", __name__)
+    raise AttributeError(f"module 'hairshade' has no attribute {name!r}")
+
+
 __all__ = [
-    "ChiangHair", "DEonHair", "KarisHair", "Scene", "SceneError", "lobes", "render",
-    "read_exr", "write_exr", "write_png", "rel_mse", "side_by_side", "__version__", "num_threads",
+    "ChiangHair", "DEonHair", "KarisHair", "Scene", "SceneError", "lobes", "mapping", "render",
+    "read_exr", "write_exr", "write_png", "rel_mse", "side_by_side", "examples", "__version__", "num_threads",
 ]

@@ -16,9 +16,10 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 
-def _as_array(x: object, name: str) -> np.ndarray:
+def _as_array(x: npt.ArrayLike, name: str) -> np.ndarray:
     try:
         a = np.asarray(x)
     except Exception as e:  # ragged nested lists and the like
@@ -33,7 +34,7 @@ def common_dtype(arrays: Sequence[np.ndarray]) -> type:
     return np.float32 if all(a.dtype == np.float32 for a in arrays) else np.float64
 
 
-def directions(x: object, name: str) -> np.ndarray:
+def directions(x: npt.ArrayLike, name: str) -> np.ndarray:
     """Validates a (N, 3) or (3,) direction array (dtype left as given)."""
     a = _as_array(x, name)
     if a.ndim == 1 and a.shape[0] == 3:
@@ -56,7 +57,7 @@ def flat(a: np.ndarray, dtype: type) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=dtype).reshape(-1)
 
 
-def prepare_pairs(wi: object, wo: object) -> tuple[np.ndarray, np.ndarray, type, int, bool]:
+def prepare_pairs(wi: npt.ArrayLike, wo: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, type, int, bool]:
     """(flat wi, flat wo, dtype, N, single) for a pair-wise evaluation."""
     a = directions(wi, "wi")
     b = directions(wo, "wo")
@@ -66,7 +67,7 @@ def prepare_pairs(wi: object, wo: object) -> tuple[np.ndarray, np.ndarray, type,
     return flat(a, dtype), flat(b, dtype), dtype, n, single
 
 
-def uniforms(x: object, name: str, n: int | None, width: int) -> np.ndarray:
+def uniforms(x: npt.ArrayLike, name: str, n: int | None, width: int) -> np.ndarray:
     """Validates random numbers of shape (N,) (width 1) or (N, width)."""
     a = _as_array(x, name)
     shape = (n,) if width == 1 else (n, width)

@@ -1,14 +1,30 @@
-"""Shared plumbing of the real-time model wrappers (KarisHair, DEonHair)."""
+"""Shared plumbing of the model wrappers: pickling (every model), components,
+colors and per-pair inputs (KarisHair, DEonHair)."""
 
 from __future__ import annotations
 
-from typing import Iterable
+from typing import Any, Iterable
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _arrays
 
 COMPONENTS = ("R", "TT", "TRT", "MS")
+
+
+class Picklable:
+    """Pickling for a model whose ``_params`` are its constructor's keyword
+    arguments: the parameters are pickled and the native model is rebuilt
+    from them on load (so the copy evaluates bit-identically)."""
+
+    _params: dict[str, Any]
+
+    def __getstate__(self) -> dict[str, Any]:
+        return dict(self._params)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(**state)  # type: ignore[misc]
 
 
 def components(value: str | Iterable[str], allowed: tuple[str, ...]) -> list[str]:
@@ -19,7 +35,7 @@ def components(value: str | Iterable[str], allowed: tuple[str, ...]) -> list[str
     return names
 
 
-def rgb(value: object, name: str) -> list[float]:
+def rgb(value: npt.ArrayLike, name: str) -> list[float]:
     a = np.asarray(value, dtype=np.float64)
     if a.ndim == 0:
         a = np.repeat(a, 3)
@@ -30,7 +46,7 @@ def rgb(value: object, name: str) -> list[float]:
     return [float(x) for x in a]
 
 
-def triples(L: object, V: object, T: object) -> tuple[list[np.ndarray], type, int, bool]:
+def triples(L: npt.ArrayLike, V: npt.ArrayLike, T: npt.ArrayLike) -> tuple[list[np.ndarray], type, int, bool]:
     """Validated (flat L, V, T), dtype, N, single for a world-space evaluation."""
     arrs = [_arrays.directions(x, n) for x, n in ((L, "L"), (V, "V"), (T, "T"))]
     counts = [1 if a.ndim == 1 else a.shape[0] for a in arrs]
@@ -43,7 +59,7 @@ def triples(L: object, V: object, T: object) -> tuple[list[np.ndarray], type, in
     return [_arrays.flat(a, dtype) for a in arrs], dtype, n, single
 
 
-def per_pair(value: object, name: str, n: int, dtype: type, rgb_values: bool) -> tuple[np.ndarray, bool]:
+def per_pair(value: npt.ArrayLike, name: str, n: int, dtype: type, rgb_values: bool) -> tuple[np.ndarray, bool]:
     """A per-pair input: scalar or (N,) (rgb_values False); scalar, (3,) or
     (N, 3) (rgb_values True). Returns (flat array, is_single)."""
     a = np.asarray(value)

@@ -41,7 +41,7 @@ import numpy as np
 
 from . import _native
 from ._progress import progress
-from .references import CASES, EXAMPLES, KARIS_CASES, comparison_scene, karis_reference_path, karis_scene, reference_path
+from .references import CASES, EXAMPLES, REFERENCES, KARIS_CASES, comparison_scene, karis_reference_path, karis_scene, reference_path
 from .render import read_exr, rel_mse, render
 from .scene import Scene
 
@@ -116,7 +116,7 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
                             progress_bar: bool = True) -> list[dict[str, Any]]:
     """All rows (see the module doc). ``fast``: small resolutions and spp,
     fewer strands (for the notebook and the tests)."""
-    data = data_dir or os.path.join(EXAMPLES, "..", "tests", "data")
+    data = data_dir or REFERENCES
     rows: list[dict[str, Any]] = []
     resolutions = ((160, 90), (320, 180)) if fast else RESOLUTIONS
     spps = (1, 4) if fast else SPP
@@ -312,7 +312,7 @@ def read_csv(path: str) -> list[dict[str, Any]]:
     return rows
 
 
-def plot(rows: list[dict[str, Any]], path: str) -> None:
+def plot(rows: list[dict[str, Any]], path: str, dpi: int = 130) -> None:
     """Left: time against error per scene (Mitsuba's spp sweep as a line,
     the rasterizer as a star). Right: ms/frame against strand count."""
     import matplotlib
@@ -345,5 +345,5 @@ def plot(rows: list[dict[str, Any]], path: str) -> None:
         bx.set_xlabel(f"strands (16 segments), {s[0]['width']}x{s[0]['height']}")
         bx.set_ylabel("ms per frame")
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)

@@ -12,9 +12,14 @@ model's converged f64 reference:
   quadrature;
 - ChiangHair near and far field against their own f64 evaluation (the f32
   rounding; f64 rows have error 0 by definition);
-- Mitsuba's ``hair`` (``llvm_ad_rgb`` when available) against ChiangHair's
-  f64 near field with Mitsuba's I0 (float32 arithmetic; the exact-I0
-  difference is reported by ``hairshade validate``).
+- Mitsuba's ``hair`` against ChiangHair's f64 near field with Mitsuba's I0
+  (float32 arithmetic; the exact-I0 difference is reported by
+  ``hairshade validate``), timed the fastest honest ways, each calling
+  Mitsuba's ``BSDF.eval`` directly (see :func:`mitsuba_cases`): "numpy to
+  numpy" (contiguous float32 columns into drjit, the result back into
+  numpy) and "data resident" (inputs already in drjit arrays; the timer stops
+  after ``dr.eval`` and ``dr.sync_thread``), with ``llvm_ad_rgb`` (JIT, SIMD,
+  all cores) and, where a GPU is present, ``cuda_ad_rgb``.
 """
 
 from __future__ import annotations
@@ -85,24 +90,24 @@ def bsdf_runtime_vs_error(n: int = 1 << 20, repeats: int = 3, fast: bool = False
             err = 0.0 if hs_n is None else _rel_l2(sum(d.eval_lobes(L, V, T).values()), deon_sum)
             add("DEonHair", "converged" if hs_n is None else f"h_samples={hs_n}", "f64",
                 lambda d=d: d.eval(wi_s, wo_s, T1), n_slow, err)
-    try:
-        from .mitsuba import MitsubaHair
-
-        cm = ChiangHair(longitudinal_roughness=0.3, azimuthal_roughness=0.3, i0="mitsuba")
-        mh = MitsubaHair(cm, variant)
-        add("Mitsuba hair", mh.variant, "f32", lambda: mh.eval(wi, wo), n, _rel_l2(mh.eval(L, V), cm.eval(L, V)))
-    except ImportError:
-        pass
+    cm = ChiangHair(longitudinal_roughness=0.3, azimuthal_roughness=0.3, i0="mitsuba")
+    for var, path, fn in mitsuba_cases(cm, wi, wo, variant):
+        add("Mitsuba hair", f"{var} {path}", "f32", fn, n, mitsuba_error(cm, var, L, V))
 
     rows: list[dict[str, Any]] = []
     for threads in ("all", "1"):
         _native.set_single_threaded(threads == "1")
         try:
-            for _, fn, _, _ in cases:  # warm-up
-                fn()
+            # Mitsuba's own thread pool is not ours to limit: its rows run in the all-threads pass only
+            run = [threads == "all" or meta["model"] != "Mitsuba hair" for meta, _, _, _ in cases]
+            for (_, fn, _, _), on in zip(cases, run):  # warm-up (JIT compilation, thread pools)
+                if on:
+                    fn()
             best = [np.inf] * len(cases)
             for _ in progress(range(repeats), desc=f"bench ({threads} threads)", enabled=progress_bar):
                 for i, (_, fn, _, _) in enumerate(cases):
+                    if not run[i]:
+                        continue
                     t0 = time.perf_counter()
                     fn()
                     best[i] = min(best[i], time.perf_counter() - t0)
@@ -110,10 +115,78 @@ def bsdf_runtime_vs_error(n: int = 1 << 20, repeats: int = 3, fast: bool = False
             _native.set_single_threaded(False)
         for (meta, _, count, err), t in zip(cases, best):
             if meta["model"] == "Mitsuba hair" and threads == "1":
-                continue  # Mitsuba's own thread pool is not ours to limit
+                continue
             rows.append(dict(**meta, threads=threads if meta["model"] != "Mitsuba hair" else "mitsuba",
                              evals_per_s=count / t, rel_l2_error=err))
     return rows
+
+
+MITSUBA_PATHS = ("numpy to numpy", "data resident")
+
+
+def mitsuba_cases(model: ChiangHair, wi: np.ndarray, wo: np.ndarray,
+                  variant: str | None = None) -> list[tuple[str, str, Callable[[], Any]]]:
+    """(variant, path, timed call) of Mitsuba's own ``hair.eval`` on the
+    pairs (wi, wo), for ``llvm_ad_rgb`` (or ``variant``) and ``cuda_ad_rgb``
+    when a GPU is present (skipped otherwise):
+
+    - "numpy to numpy": the float32 columns of wi and wo (contiguous, made
+      before timing) into drjit ``Vector3f``, ``eval``, and the (3, N)
+      result back into numpy;
+    - "data resident": wi and wo already in drjit arrays (evaluated before
+      timing); ``eval`` then ``dr.eval`` and ``dr.sync_thread`` so the
+      kernel has run when the timer stops.
+    """
+    from .mitsuba import default_variant, hair_dict
+
+    import drjit as dr
+    import mitsuba as mi
+
+    variants = [variant or default_variant()]
+    if "cuda_ad_rgb" in mi.variants() and "cuda_ad_rgb" not in variants:
+        try:
+            mi.set_variant("cuda_ad_rgb")
+            dr.eval(mi.Float(1.0))  # raises without a usable GPU
+            variants.append("cuda_ad_rgb")
+        except Exception:  # no GPU or no CUDA driver: no cuda rows
+            pass
+    cols = [np.ascontiguousarray(a[:, k], dtype=np.float32) for a in (wi, wo) for k in range(3)]
+    cases: list[tuple[str, str, Callable[[], Any]]] = []
+    for var in variants:
+        if var.startswith("scalar"):
+            continue  # a Python loop per pair: not a batch evaluation
+        mi.set_variant(var)
+        bsdf = mi.load_dict(hair_dict(model))
+        ctx = mi.BSDFContext()
+
+        def numpy_to_numpy(var: str = var, bsdf: Any = bsdf, ctx: Any = ctx) -> np.ndarray:
+            mi.set_variant(var)
+            si = dr.zeros(mi.SurfaceInteraction3f, len(cols[0]))
+            si.wi = mi.Vector3f(cols[0], cols[1], cols[2])
+            return np.array(bsdf.eval(ctx, si, mi.Vector3f(cols[3], cols[4], cols[5])))
+
+        si = dr.zeros(mi.SurfaceInteraction3f, len(cols[0]))
+        si.wi = mi.Vector3f(cols[0], cols[1], cols[2])
+        wo_dr = mi.Vector3f(cols[3], cols[4], cols[5])
+        dr.eval(si, wo_dr)
+        dr.sync_thread()
+
+        def resident(var: str = var, bsdf: Any = bsdf, ctx: Any = ctx, si: Any = si, wo_dr: Any = wo_dr) -> Any:
+            mi.set_variant(var)
+            v = bsdf.eval(ctx, si, wo_dr)
+            dr.eval(v)
+            dr.sync_thread()
+            return v
+
+        cases += [(var, MITSUBA_PATHS[0], numpy_to_numpy), (var, MITSUBA_PATHS[1], resident)]
+    return cases
+
+
+def mitsuba_error(model: ChiangHair, variant: str, L: np.ndarray, V: np.ndarray) -> float:
+    """Relative L2 of Mitsuba's ``hair`` (``variant``) against ``model`` in f64 on (L, V)."""
+    from .mitsuba import MitsubaHair
+
+    return _rel_l2(MitsubaHair(model, variant).eval(L, V), model.eval(L, V))
 
 
 def pareto(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -132,28 +205,48 @@ def write_csv(rows: list[dict[str, Any]], path: str) -> None:
             f.write(",".join(str(r[k]) if not isinstance(r[k], float) else f"{r[k]:.6g}" for k in keys) + "\n")
 
 
-def plot(rows: list[dict[str, Any]], path: str) -> None:
+MARKERS = {"KarisHair": "o", "ChiangHair": "s", "DEonHair": "D", "Mitsuba hair": "^"}
+
+
+def plot(rows: list[dict[str, Any]], path: str, dpi: int = 130) -> None:
+    """Evaluations per second against error: one colour per (model,
+    variant, precision) in order of appearance (matplotlib's 20-colour
+    table, then tab20b), a shape per model, filled on all threads (or
+    Mitsuba's) and hollow on one; a legend beside the axes names each
+    colour (no labels on the points, so none overlap); the Pareto front."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = plt.subplots(figsize=(11, 5.5))
     floor = 1e-9  # errors of exactly 0 (f64 references) drawn at the floor
+    colors = list(plt.get_cmap("tab20").colors) + list(plt.get_cmap("tab20b").colors)
+    keys: dict[tuple[str, str, str], int] = {}
     for r in rows:
         if not np.isfinite(r["rel_l2_error"]):
             continue
-        marker = "o" if r["threads"] == "all" else ("s" if r["threads"] == "1" else "^")
-        ax.scatter(r["evals_per_s"], max(r["rel_l2_error"], floor), marker=marker, s=25)
-        ax.annotate(f"{r['model']} {r['variant']} {r['precision']} ({r['threads']})", (r["evals_per_s"], max(r["rel_l2_error"], floor)),
-                    fontsize=6, xytext=(3, 2), textcoords="offset points")
+        key = (r["model"], r["variant"], r["precision"])
+        first = key not in keys
+        c = colors[keys.setdefault(key, len(keys)) % len(colors)]
+        hollow = r["threads"] == "1"
+        ax.scatter(r["evals_per_s"], max(r["rel_l2_error"], floor), marker=MARKERS.get(r["model"], "v"), s=30,
+                   facecolors="none" if hollow else [c], edgecolors=[c] if hollow else "none",
+                   label=" ".join(key) if first else None)
     front = sorted(pareto(rows), key=lambda r: r["evals_per_s"])
-    ax.plot([r["evals_per_s"] for r in front], [max(r["rel_l2_error"], floor) for r in front], "k--", lw=0.8, label="Pareto front")
+    ax.plot([r["evals_per_s"] for r in front], [max(r["rel_l2_error"], floor) for r in front], "k--", lw=0.8,
+            label="Pareto front")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("evaluations per second")
-    ax.set_ylabel("relative L2 error vs converged f64 reference")
-    ax.legend(fontsize=8)
+    ax.set_ylabel(f"relative L2 error vs converged f64 reference (0 drawn at {floor:g})")
+    ax.grid(True, which="major", lw=0.3, alpha=0.5)
+    handles, labels = ax.get_legend_handles_labels()
+    for text, fill in (("filled: all threads (Mitsuba: its own)", "grey"), ("hollow: 1 thread", "none")):
+        handles.append(Line2D([], [], ls="", marker="o", markerfacecolor=fill, markeredgecolor="grey"))
+        labels.append(text)
+    ax.legend(handles, labels, fontsize=6.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)

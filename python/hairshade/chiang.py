@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _arrays
+from . import _models
 from . import _native
 
 _I0_MODES = ("exact", "mitsuba")
@@ -24,7 +27,31 @@ def longitudinal_variance(beta_m: float) -> float:
     return float(_native.chiang_longitudinal_variance(float(beta_m)))
 
 
-class ChiangHair:
+# Mitsuba's default exterior medium for `hair` ("air").
+EXT_IOR_AIR = 1.000277
+
+
+def relative_ior(eta: float | None, int_ior: float | None, ext_ior: float | None) -> float:
+    """The relative IOR from ChiangHair's ``eta`` or Mitsuba's ``int_ior`` /
+    ``ext_ior`` (numbers; Mitsuba's defaults 1.55 and 1.000277 fill in the
+    one not given). None of them given: eta = 1.55."""
+    if eta is not None and (int_ior is not None or ext_ior is not None):
+        given = ", ".join(n for n, v in (("int_ior", int_ior), ("ext_ior", ext_ior)) if v is not None)
+        raise ValueError(f"eta and {given}: give either eta (relative IOR) or Mitsuba's int_ior/ext_ior, not both")
+    if int_ior is None and ext_ior is None:
+        return 1.55 if eta is None else float(eta)
+    iors = []
+    for name, v, default in (("int_ior", int_ior, 1.55), ("ext_ior", ext_ior, EXT_IOR_AIR)):
+        if isinstance(v, str) or isinstance(v, bool):
+            raise ValueError(f"{name}: expected a number (named media are not supported), got {v!r}")
+        x = default if v is None else float(v)
+        if not math.isfinite(x) or x <= 0:
+            raise ValueError(f"{name}: must be finite and > 0, got {x}")
+        iors.append(x)
+    return iors[0] / iors[1]
+
+
+class ChiangHair(_models.Picklable):
     """Chiang et al. 2016 near-field hair BSDF with Mitsuba 3's parameters,
     frame and normalization.
 
@@ -40,6 +67,9 @@ class ChiangHair:
     azimuthal_roughness      0.3       beta_n in [0, 1]; below 1e-3 uses 1e-3
     scale_tilt               2.0       cuticle angle alpha in degrees, [-90, 90]
     eta                      1.55      relative IOR int_ior / ext_ior; > 0, != 1
+    int_ior, ext_ior         None      Mitsuba's names: eta = int_ior / ext_ior
+                                       (ext_ior defaults to 1.000277, Mitsuba's
+                                       "air"); exclusive with eta
     i0                       "exact"   "exact", or "mitsuba" to reproduce
                                        Mitsuba's truncated Bessel series
     ======================== ========= =============================================
@@ -58,15 +88,18 @@ class ChiangHair:
 
     def __init__(
         self,
-        sigma_a: float | Sequence[float] | None = None,
+        sigma_a: float | Sequence[float] | npt.ArrayLike | None = None,
         eumelanin: float | None = None,
         pheomelanin: float | None = None,
         longitudinal_roughness: float = 0.3,
         azimuthal_roughness: float = 0.3,
         scale_tilt: float = 2.0,
-        eta: float = 1.55,
+        eta: float | None = None,
         i0: str = "exact",
+        int_ior: float | None = None,
+        ext_ior: float | None = None,
     ) -> None:
+        eta = relative_ior(eta, int_ior, ext_ior)  # the model keeps eta only
         if i0 not in _I0_MODES:
             raise ValueError(f"i0: must be one of {_I0_MODES}, got {i0!r}")
         sa = None
@@ -124,12 +157,12 @@ class ChiangHair:
         return f"ChiangHair({args})"
 
     # -- evaluation ----------------------------------------------------------
-    def _rgb(self, native_op: Any, wi: object, wo: object) -> np.ndarray:
+    def _rgb(self, native_op: Any, wi: npt.ArrayLike, wo: npt.ArrayLike) -> np.ndarray:
         a, b, dtype, n, single = _arrays.prepare_pairs(wi, wo)
         out = native_op(a, b).reshape(n, 3)
         return out[0] if single else out
 
-    def eval(self, wi: object, wo: object) -> np.ndarray:
+    def eval(self, wi: npt.ArrayLike, wo: npt.ArrayLike) -> np.ndarray:
         """BSDF value (cosine included, as Mitsuba): (N,3),(N,3) -> (N,3).
 
         float64 runs the scalar kernel. float32 with ``i0="exact"`` runs the
@@ -140,7 +173,7 @@ class ChiangHair:
         takes phi_i = pi/2 there, the scalar one atan2(0, 0) = 0."""
         return self._rgb(self._native.eval, wi, wo)
 
-    def eval_far(self, wi: object, wo: object, fast: bool = False) -> np.ndarray:
+    def eval_far(self, wi: npt.ArrayLike, wo: npt.ArrayLike, fast: bool = False) -> np.ndarray:
         """Far-field BSDF: ``eval`` averaged over h in [-1, 1] (the normal
         rotated about the tangent). Depends only on theta_i, theta_o and
         phi_o - phi_i. Converged to 1e-6 relative (quadrature order chosen
@@ -155,7 +188,7 @@ class ChiangHair:
         out = self._native.eval_far(a, b, fast=bool(fast)).reshape(n, 3)
         return out[0] if single else out
 
-    def eval_far_lobes(self, wi: object, wo: object, fast: bool = False) -> dict[str, np.ndarray]:
+    def eval_far_lobes(self, wi: npt.ArrayLike, wo: npt.ArrayLike, fast: bool = False) -> dict[str, np.ndarray]:
         """``eval_far`` split by path: {"R", "TT", "TRT", "TRRT+"} -> (N, 3)
         each (the last is the residual of all longer paths); they sum to
         ``eval_far``. ``fast``: as ``eval_far``."""
@@ -181,13 +214,13 @@ class ChiangHair:
         material and density."""
         return dict(self._native.dual_terms(float(back_density)))
 
-    def pdf(self, wi: object, wo: object) -> np.ndarray:
+    def pdf(self, wi: npt.ArrayLike, wo: npt.ArrayLike) -> np.ndarray:
         """Solid-angle density of ``sample``: (N,3),(N,3) -> (N,)."""
         a, b, dtype, n, single = _arrays.prepare_pairs(wi, wo)
         out = self._native.pdf(a, b)
         return out[0] if single else out
 
-    def sample(self, wi: object, u1: object, u2: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def sample(self, wi: npt.ArrayLike, u1: npt.ArrayLike, u2: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Importance sampling: ``wi`` (N,3) or (3,), ``u1`` (N,), ``u2`` (N,2)
         uniform in [0,1] -> (wo (N,3), weight = eval/pdf (N,3), pdf (N,)).
         A failed sample has pdf 0 and weight 0. Random numbers are clamped to

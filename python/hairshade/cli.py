@@ -16,7 +16,11 @@ import sys
 
 import numpy as np
 
-from . import __version__
+from . import __version__, _extras
+
+# What each command needs beyond numpy (import names; see _extras.EXTRAS).
+# The Mitsuba bridge imports scipy (hairshade.mapping), which [mitsuba] installs.
+MITSUBA = ["mitsuba", "drjit", "scipy"]
 
 
 def _fmt(x: float) -> str:
@@ -24,6 +28,7 @@ def _fmt(x: float) -> str:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
+    _extras.check(MITSUBA, "hairshade validate", ["mitsuba"])
     import mitsuba as mi
 
     from . import validation
@@ -57,7 +62,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     tp = validation.throughput(variant=args.variant)
     base = tp["hairshade f32"]
     for k, v in tp.items():
-        print(f"  {k:26s} {v / 1e6:8.2f} M/s   ({v / base:5.2f} x hairshade f32)")
+        print(f"  {k:40s} {v / 1e6:8.2f} M/s   ({v / base:5.2f} x hairshade f32)")
     ok = worst_cond <= 1e-4
     print("\nvalidate:", "OK" if ok else "FAILED")
     return 0 if ok else 1
@@ -65,19 +70,30 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 def cmd_bench(args: argparse.Namespace) -> int:
     from . import bench_render, benchmark
+    from .references import REFERENCES
 
     if args.out:
-        os.makedirs(args.out, exist_ok=True)
         args.csv = args.csv or os.path.join(args.out, "bench_bsdf.csv")
         args.plot = args.plot or os.path.join(args.out, "bench_bsdf.png")
-        args.render = True
+        args.render = not args.bsdf_only
+    if args.bsdf_only and args.render_only:
+        raise ValueError("--bsdf-only and --render-only exclude each other")
+    renders = args.render or args.render_only
+    _extras.check(MITSUBA, "hairshade bench", ["mitsuba"])
+    if args.plot or args.out:
+        _extras.check(["matplotlib"], "hairshade bench --plot/--out")
+    if renders and not os.path.isdir(REFERENCES):
+        raise ValueError(f"the rendering benchmark compares against the Mitsuba references in tests/data of a source "
+                         f"checkout ({os.path.normpath(REFERENCES)} not found); use --bsdf-only")
+    if args.out:
+        os.makedirs(args.out, exist_ok=True)
     if not args.render_only:
         rows = benchmark.bsdf_runtime_vs_error(n=args.n, repeats=args.repeats, fast=args.fast, variant=args.variant,
                                                progress_bar=not args.no_progress)
         print(f"BSDF run time against error ({args.n} pairs, best of {args.repeats}; error: rel. L2 vs converged f64 reference)")
-        print(f"{'model':14s} {'variant':16s} {'prec':4s} {'threads':8s} {'M evals/s':>10s} {'rel L2 err':>11s}")
+        print(f"{'model':14s} {'variant':28s} {'prec':4s} {'threads':8s} {'M evals/s':>10s} {'rel L2 err':>11s}")
         for r in rows:
-            print(f"{r['model']:14s} {r['variant']:16s} {r['precision']:4s} {r['threads']:8s} "
+            print(f"{r['model']:14s} {r['variant']:28s} {r['precision']:4s} {r['threads']:8s} "
                   f"{r['evals_per_s'] / 1e6:10.3f} {r['rel_l2_error']:11.3e}")
         if args.csv:
             benchmark.write_csv(rows, args.csv)
@@ -85,7 +101,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         if args.plot:
             benchmark.plot(rows, args.plot)
             print(f"wrote {args.plot}")
-    if args.render or args.render_only:
+    if renders:
         rrows = bench_render.render_runtime_vs_error(fast=args.fast, repeats=min(args.repeats, 3),
                                                      progress_bar=not args.no_progress)
         print(bench_render.summary(rrows))
@@ -101,6 +117,8 @@ def cmd_tables(args: argparse.Namespace) -> int:
     import json
     import os
 
+    if not args.no_chiang:
+        _extras.check(["scipy"], "hairshade tables (the ChiangHair comparison; --no-chiang skips it)")
     from . import tables
 
     os.makedirs(args.out, exist_ok=True)
@@ -160,27 +178,24 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _metrics(img: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
-    from .render import rel_mse
-
-    try:
-        import flip_evaluator as flip
-
-        f = float(flip.evaluate(np.maximum(ref, 0), np.maximum(img, 0), "HDR")[1])
-    except ImportError:  # optional dependency
-        f = float("nan")
-    return rel_mse(img, ref), f
+def _flip(img: np.ndarray, ref: np.ndarray) -> float:
+    """Mean HDR-FLIP of ``img`` against ``ref`` (needs flip-evaluator: the
+    commands check for it before they start)."""
+    flip = _extras.require("flip_evaluator", "FLIP")
+    return float(flip.evaluate(np.maximum(ref, 0), np.maximum(img, 0), "HDR")[1])
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from .render import read_exr, side_by_side, write_png
+    from .render import read_exr, rel_mse, side_by_side, write_png
 
+    if not args.no_flip:
+        _extras.check(["flip_evaluator"], "hairshade compare (FLIP; --no-flip skips it)")
     a, b = read_exr(args.image), read_exr(args.reference)
     if a.shape != b.shape:
         print(f"error: {args.image} is {a.shape[1]}x{a.shape[0]}, {args.reference} is {b.shape[1]}x{b.shape[0]}", file=sys.stderr)
         return 2
-    rel, f = _metrics(a, b)
-    print(f"relMSE {rel:.4e}  mean FLIP {f:.4f}  (mean radiance {a.mean():.4g} vs {b.mean():.4g})")
+    flip = "" if args.no_flip else f"  mean FLIP {_flip(a, b):.4f}"
+    print(f"relMSE {rel_mse(a, b):.4e}{flip}  (mean radiance {a.mean():.4g} vs {b.mean():.4g})")
     if args.png:
         write_png(args.png, side_by_side(a, b), exposure=args.exposure)
         print(f"side by side [image | reference | error] -> {args.png}")
@@ -190,8 +205,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_demo(args: argparse.Namespace) -> int:
     import time
 
+    _extras.check(MITSUBA + ["flip_evaluator"], "hairshade demo", ["mitsuba", "flip"])
     from . import mitsuba as hm
-    from .render import render, side_by_side, write_exr, write_png
+    from .render import rel_mse, render, side_by_side, write_exr, write_png
     from .scene import Scene
 
     os.makedirs(args.out, exist_ok=True)
@@ -211,7 +227,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     write_exr(os.path.join(args.out, "demo_mitsuba.exr"), ref)
     write_png(os.path.join(args.out, "demo_mitsuba.png"), ref, exposure=args.exposure)
     write_png(os.path.join(args.out, "demo_compare.png"), side_by_side(raster, ref), exposure=args.exposure)
-    rel, f = _metrics(raster, ref)
+    rel, f = rel_mse(raster, ref), _flip(raster, ref)
     print(f"Mitsuba {hm.default_variant()} (ChiangHair fitted to the material, path tracing, {args.spp} spp): {t_mi:.1f} s")
     print(f"rasterizer vs Mitsuba: relMSE {rel:.3e}, mean FLIP {f:.4f}; time ratio {t_mi / t_raster:.0f}x")
     print(f"images in {args.out}/ (demo_raster, demo_mitsuba, demo_compare)")
@@ -235,6 +251,7 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("--fast", action="store_true", help="skip the slow DEonHair rows; small renders")
     b.add_argument("--render", action="store_true", help="also the rendering benchmark (frame times, Mitsuba spp sweep)")
     b.add_argument("--render-only", action="store_true", help="only the rendering benchmark")
+    b.add_argument("--bsdf-only", action="store_true", help="with --out: only the BSDF benchmark")
     b.add_argument("--out", default=None, help="write every CSV and plot (BSDF and rendering) into this folder")
     b.add_argument("--no-progress", action="store_true")
     b.set_defaults(func=cmd_bench)
@@ -259,9 +276,10 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("reference")
     c.add_argument("--png", help="write a side-by-side PNG [image | reference | error]")
     c.add_argument("--exposure", type=float, default=0.0)
+    c.add_argument("--no-flip", action="store_true", help="relMSE only (FLIP needs hairshade[flip])")
     c.set_defaults(func=cmd_compare)
     dm = sub.add_parser("demo", help="render the demo head with the rasterizer and Mitsuba")
-    dm.add_argument("--scene", default=os.path.join(os.path.dirname(__file__), "..", "..", "examples", "strand_head.json"))
+    dm.add_argument("--scene", default=os.path.join(os.path.dirname(__file__), "examples", "strand_head.json"))
     dm.add_argument("--out", default="out")
     dm.add_argument("--width", type=int, default=640)
     dm.add_argument("--height", type=int, default=360)
@@ -274,7 +292,7 @@ def main(argv: list[str] | None = None) -> int:
     np.seterr(all="ignore")
     try:
         return int(args.func(args))
-    except (ValueError, OSError) as e:  # SceneError is a ValueError
+    except (ValueError, OSError, _extras.MissingExtra) as e:  # SceneError is a ValueError
         print(f"error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -5,12 +5,13 @@ from __future__ import annotations
 from typing import Any, Iterable, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _models
 from . import _native
 
 
-class DEonHair:
+class DEonHair(_models.Picklable):
     """The far-field reference that KarisHair approximates: UE4's
     ``HairShadingRef()`` with the same artist parameters (d'Eon et al. 2011
     longitudinal term, azimuthal term integrated over the fiber offset h with
@@ -66,13 +67,13 @@ class DEonHair:
     def __repr__(self) -> str:
         return "DEonHair(" + ", ".join(f"{k}={v!r}" for k, v in self._params.items()) + ")"
 
-    def eval(self, L, V, T) -> np.ndarray:
+    def eval(self, L: npt.ArrayLike, V: npt.ArrayLike, T: npt.ArrayLike) -> np.ndarray:
         """Sum of the enabled lobes: (N, 3)."""
         (l, v, t), dtype, n, single = _models.triples(L, V, T)
         out = self._native.eval((l, v, t)).reshape(n, 3)
         return out[0] if single else out
 
-    def eval_lobes(self, L, V, T) -> dict[str, np.ndarray]:
+    def eval_lobes(self, L: npt.ArrayLike, V: npt.ArrayLike, T: npt.ArrayLike) -> dict[str, np.ndarray]:
         """{"R", "TT", "TRT"} -> (N, 3) each (disabled lobes are 0)."""
         (l, v, t), dtype, n, single = _models.triples(L, V, T)
         out = self._native.eval((l, v, t), lobes=True).reshape(n, 3, 3)

@@ -5,13 +5,14 @@ from __future__ import annotations
 from typing import Any, Iterable, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _models
 from . import _native
 from .lighting import sh_coefficients
 
 
-class KarisHair:
+class KarisHair(_models.Picklable):
     """UE4's ``HairShading()`` (Karis, SIGGRAPH 2016), term by term.
 
     ==================== ================ ==========================================
@@ -87,7 +88,9 @@ class KarisHair:
     def __repr__(self) -> str:
         return "KarisHair(" + ", ".join(f"{k}={v!r}" for k, v in self._params.items()) + ")"
 
-    def _run(self, lobes: bool, L, V, T, shadow, global_scattering, local_scattering, opaque_visibility):
+    def _run(self, lobes: bool, L: npt.ArrayLike, V: npt.ArrayLike, T: npt.ArrayLike, shadow: npt.ArrayLike,
+             global_scattering: npt.ArrayLike, local_scattering: npt.ArrayLike,
+             opaque_visibility: npt.ArrayLike) -> tuple[np.ndarray, int, bool]:
         (l, v, t), dtype, n, single = _models.triples(L, V, T)
         extras = [
             _models.per_pair(shadow, "shadow", n, dtype, False),
@@ -99,7 +102,9 @@ class KarisHair:
         out = self._native.eval((l, v, t), *(a for a, _ in extras), lobes=lobes)
         return out, n, single
 
-    def eval(self, L, V, T, shadow=1.0, global_scattering=1.0, local_scattering=0.0, opaque_visibility=1.0) -> np.ndarray:
+    def eval(self, L: npt.ArrayLike, V: npt.ArrayLike, T: npt.ArrayLike, shadow: npt.ArrayLike = 1.0,
+             global_scattering: npt.ArrayLike = 1.0, local_scattering: npt.ArrayLike = 0.0,
+             opaque_visibility: npt.ArrayLike = 1.0) -> np.ndarray:
         """UE's ``HairShading`` S for light L, view V, tangent T -> (N, 3).
 
         ``shadow`` (scalar or (N,)) enters only the Kajiya-Kay tint;
@@ -110,7 +115,9 @@ class KarisHair:
         out = out.reshape(n, 3)
         return out[0] if single else out
 
-    def eval_lobes(self, L, V, T, shadow=1.0, global_scattering=1.0, local_scattering=0.0, opaque_visibility=1.0) -> dict[str, np.ndarray]:
+    def eval_lobes(self, L: npt.ArrayLike, V: npt.ArrayLike, T: npt.ArrayLike, shadow: npt.ArrayLike = 1.0,
+                   global_scattering: npt.ArrayLike = 1.0, local_scattering: npt.ArrayLike = 0.0,
+                   opaque_visibility: npt.ArrayLike = 1.0) -> dict[str, np.ndarray]:
         """{"R", "TT", "TRT", "MS"} -> (N, 3) each; disabled lobes are 0.
         MS is everything the multiple-scattering block adds, so the four
         sum to ``eval`` wherever that sum is >= 0 (UE clamps it at 0)."""
@@ -119,7 +126,7 @@ class KarisHair:
         lobes = {name: out[:, k] for k, name in enumerate(_models.COMPONENTS)}
         return {k: v[0] for k, v in lobes.items()} if single else lobes
 
-    def eval_env(self, V, T, sh) -> np.ndarray:
+    def eval_env(self, V: npt.ArrayLike, T: npt.ArrayLike, sh: npt.ArrayLike) -> np.ndarray:
         """Environment lighting as in Karis 2016: the SH radiance sampled in
         the fake-normal direction n = normalize(V - T (T.V)) and used as a
         directional light from n, times pi, with R multiplied by
@@ -135,7 +142,7 @@ class KarisHair:
         return out[0] if single else out
 
 
-def _env_pairs(V, T):
+def _env_pairs(V: npt.ArrayLike, T: npt.ArrayLike) -> tuple[tuple[np.ndarray, np.ndarray], type, int, bool]:
     from . import _arrays
 
     a, b = _arrays.directions(V, "V"), _arrays.directions(T, "T")

@@ -5,6 +5,7 @@ KarisHair's environment lighting and the renderer take."""
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from ._native import SH_Y00
 
@@ -13,7 +14,7 @@ Y00: float = float(SH_Y00)
 single coefficient L / Y00."""
 
 
-def sh_coefficients(sh: object) -> np.ndarray:
+def sh_coefficients(sh: npt.ArrayLike) -> np.ndarray:
     """(9, 3) float64 SH coefficients from (3,) constant radiance, or (4, 3)
     / (9, 3) coefficients (bands 0-1 / 0-2; missing bands are 0). Raises
     ValueError for other shapes or non-finite values."""

@@ -23,11 +23,13 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy import optimize
 
+from ._extras import require
 from .chiang import ChiangHair, azimuthal_scale
 from .deon import DEonHair
 from .karis import KarisHair
+
+optimize = require("scipy.optimize", "hairshade.mapping")
 
 
 def _grid() -> tuple[np.ndarray, np.ndarray]:

@@ -17,7 +17,10 @@ from typing import Any
 
 from .scene import Scene
 
-EXAMPLES = os.path.join(os.path.dirname(__file__), "..", "..", "examples")
+EXAMPLES = os.path.join(os.path.dirname(__file__), "examples")
+# The cached Mitsuba references live in the source tree (tests/data), not in
+# the installed package.
+REFERENCES = os.path.join(os.path.dirname(__file__), "..", "..", "tests", "data")
 CASES = {
     "single_strand": dict(width=320, height=180, spp=1024),
     "backlit_bundle": dict(width=320, height=180, spp=1024),

@@ -3,14 +3,77 @@
 from __future__ import annotations
 
 import os
-import sys
-import time
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _native
+from ._progress import Bar
 from .scene import Scene
+
+Image = npt.NDArray[np.float32]  # (H, W, 3) linear radiance
+
+
+@overload
+def render(
+    scene: Scene,
+    width: int | None = None,
+    height: int | None = None,
+    transparency: str | None = None,
+    layers: int | None = None,
+    shading: str | None = None,
+    frustum_culling: bool | None = None,
+    backface_culling: bool | None = None,
+    opaque_culling: bool | None = None,
+    skip_unused: bool | None = None,
+    reuse_shadow_maps: bool | None = None,
+    light_cull_threshold: float | None = None,
+    multiple_scattering: str | None = None,
+    progress: bool | None = None,
+    return_stats: Literal[False] = False,
+) -> Image: ...
+
+
+@overload
+def render(
+    scene: Scene,
+    width: int | None = None,
+    height: int | None = None,
+    transparency: str | None = None,
+    layers: int | None = None,
+    shading: str | None = None,
+    frustum_culling: bool | None = None,
+    backface_culling: bool | None = None,
+    opaque_culling: bool | None = None,
+    skip_unused: bool | None = None,
+    reuse_shadow_maps: bool | None = None,
+    light_cull_threshold: float | None = None,
+    multiple_scattering: str | None = None,
+    progress: bool | None = None,
+    *,
+    return_stats: Literal[True],
+) -> tuple[Image, dict[str, Any]]: ...
+
+
+@overload
+def render(
+    scene: Scene,
+    width: int | None = None,
+    height: int | None = None,
+    transparency: str | None = None,
+    layers: int | None = None,
+    shading: str | None = None,
+    frustum_culling: bool | None = None,
+    backface_culling: bool | None = None,
+    opaque_culling: bool | None = None,
+    skip_unused: bool | None = None,
+    reuse_shadow_maps: bool | None = None,
+    light_cull_threshold: float | None = None,
+    multiple_scattering: str | None = None,
+    progress: bool | None = None,
+    return_stats: bool = False,
+) -> Image | tuple[Image, dict[str, Any]]: ...
 
 
 def render(
@@ -30,7 +93,7 @@ def render(
     multiple_scattering: str | None = None,
     progress: bool | None = None,
     return_stats: bool = False,
-) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
+) -> Image | tuple[Image, dict[str, Any]]:
     """Renders ``scene`` -> (H, W, 3) float32 linear radiance.
 
     ``width``/``height`` override the scene's resolution (if only one is
@@ -72,8 +135,9 @@ def render(
       grid, see the scene format's ``render.multiple_scattering``).
 
     Ranges are checked by the renderer; a ``ValueError`` names the option.
-    ``progress``: a progress bar on stderr (default: when stderr is a
-    terminal). Ctrl-C stops the render (KeyboardInterrupt)."""
+    ``progress``: a progress bar (tqdm's when installed; default: where it
+    can be seen, a terminal or a notebook). Ctrl-C stops the render
+    (KeyboardInterrupt)."""
     cam = dict(scene.camera)
     if width is not None or height is not None:
         w0, h0 = cam["width"], cam["height"]
@@ -88,19 +152,8 @@ def render(
         multiple_scattering=multiple_scattering,
     )
     options.update({k: v for k, v in overrides.items() if v is not None})
-    show = sys.stderr.isatty() if progress is None else progress
-    start = time.perf_counter()
-
-    def bar(done: int, total: int) -> None:
-        frac = done / total if total else 1.0
-        sys.stderr.write(f"\rrender [{'#' * int(30 * frac):30s}] {done}/{total} tiles {time.perf_counter() - start:5.1f}s")
-        sys.stderr.flush()
-
-    try:
-        flat, stats = _native.render(_native_scene(scene, cam), options, bar if show else None)
-    finally:
-        if show:
-            sys.stderr.write("\n")
+    with Bar(0, "render", unit="tile", enabled=progress) as bar:
+        flat, stats = _native.render(_native_scene(scene, cam), options, bar.update_to if progress is not False else None)
     img = flat.reshape(cam["height"], cam["width"], 3)
     return (img, dict(stats)) if return_stats else img
 
@@ -132,7 +185,7 @@ def _native_scene(scene: Scene, cam: dict[str, Any]) -> dict[str, Any]:
     )
 
 
-def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
+def write_exr(path: str | os.PathLike[str], image: npt.ArrayLike) -> None:
     """Writes an (H, W, 3) image as a float32 RGB OpenEXR file."""
     a = np.ascontiguousarray(image, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
@@ -140,13 +193,13 @@ def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
     _native.write_exr(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)))
 
 
-def read_exr(path: str | os.PathLike) -> np.ndarray:
+def read_exr(path: str | os.PathLike[str]) -> Image:
     """Reads the RGB channels of an OpenEXR file -> (H, W, 3) float32."""
     w, h, data = _native.read_exr(os.fspath(path))
     return data.reshape(h, w, 3)
 
 
-def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0) -> None:
+def write_png(path: str | os.PathLike[str], image: npt.ArrayLike, exposure: float = 0.0) -> None:
     """8-bit sRGB preview of a linear image scaled by 2**exposure, clamped."""
     a = np.ascontiguousarray(image, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
@@ -154,15 +207,17 @@ def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0)
     _native.write_png(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)), float(exposure))
 
 
-def rel_mse(image: np.ndarray, reference: np.ndarray, eps: float = 1e-2) -> float:
+def rel_mse(image: npt.ArrayLike, reference: npt.ArrayLike, eps: float = 1e-2) -> float:
     """Relative MSE: mean of (image - reference)^2 / (reference^2 + eps)."""
+    image, reference = np.asarray(image), np.asarray(reference)
     if image.shape != reference.shape:
         raise ValueError(f"image, reference: shapes {image.shape} and {reference.shape} differ")
     return float(np.mean((image - reference) ** 2 / (reference**2 + eps)))
 
 
-def side_by_side(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
+def side_by_side(image: npt.ArrayLike, reference: npt.ArrayLike) -> Image:
     """[image | reference | |difference| scaled to the reference's 99th percentile]."""
+    image, reference = np.asarray(image, dtype=np.float32), np.asarray(reference, dtype=np.float32)
     if image.shape != reference.shape:
         raise ValueError(f"image, reference: shapes {image.shape} and {reference.shape} differ")
     diff = np.abs(image - reference).mean(axis=2, keepdims=True)

@@ -28,9 +28,10 @@ A scene file::
   have intensity in W/sr. An environment is ``radiance`` (constant) or
   ``sh`` (9 RGB real SH coefficients).
 - Hair comes from any combination of inline ``strands`` (``radius`` or a
-  per-vertex ``radii`` list), a ``file`` (text: one ``x y z r`` vertex per
-  line, a blank line between strands, ``#`` comments; relative to the scene
-  file) and ``generate`` (procedural: ``head``, ``bundle``, see
+  per-vertex ``radii`` list), a ``file`` (relative to the scene file; by
+  extension: ``.hair``, Cem Yuksel's binary format, see
+  :mod:`hairshade.hairfile`; anything else is text: one ``x y z r`` vertex
+  per line, a blank line between strands, ``#`` comments) and ``generate`` (procedural: ``head``, ``bundle``, see
   :mod:`hairshade.generate`). Radius 0 is allowed and draws nothing.
 - Hair cards: ``cards`` (ribbons with an alpha texture, see
   :mod:`hairshade.cards`) and ``generate_cards`` (cards around a procedural
@@ -81,9 +82,10 @@ import json
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _native
 from .chiang import ChiangHair
@@ -145,6 +147,42 @@ class Scene:
     def from_dict(cls, d: dict[str, Any], base_dir: str | None = None, source: str = "<dict>") -> "Scene":
         return _parse(d, base_dir or os.getcwd(), source)
 
+    @classmethod
+    def from_arrays(
+        cls,
+        points: npt.ArrayLike,
+        radii: npt.ArrayLike,
+        offsets: npt.ArrayLike,
+        material: dict[str, Any] | None = None,
+        camera: dict[str, Any] | None = None,
+        lights: list[dict[str, Any]] | None = None,
+        **fields: Any,
+    ) -> "Scene":
+        """A scene of the strands in flat arrays: ``points`` (M, 3),
+        ``radii`` (M,) or a scalar, ``offsets`` (S + 1,) (strand s is
+        points[offsets[s]:offsets[s+1]], offsets[0] = 0, offsets[-1] = M,
+        at least 2 points per strand), as the renderer and ``Scene.points``,
+        ``radii`` and ``offsets`` hold them.
+
+        ``material``, ``camera``, ``lights`` and any other top-level field of
+        the scene format (``meshes``, ``render``, and ``hair`` entries such
+        as ``generate`` inside ``fields["hair"]``) are as in a scene file and
+        checked the same way. Defaults: KarisHair; a camera looking at the
+        strands' bounding box along -z from 2.5 times its size; one
+        shadowed directional light."""
+        p, r, o = _strand_arrays(points, radii, offsets)
+        d: dict[str, Any] = {"hairshade_scene": VERSION, **fields}
+        d["hair"] = dict(d.get("hair", {}), material=material or {"model": "karis"})
+        if camera is None and len(p):
+            lo, hi = p.min(axis=0).astype(float), p.max(axis=0).astype(float)
+            c, size = (lo + hi) / 2, max(float(np.max(hi - lo)), 1e-6)
+            camera = {"position": [c[0], c[1], c[2] + 2.5 * size], "target": c.tolist()}
+        d["camera"] = camera if camera is not None else {"position": [0, 0, 3], "target": [0, 0, 0]}
+        d["lights"] = lights if lights is not None else [
+            {"type": "directional", "direction": [0.5, 0.7, 0.6], "intensity": [3, 3, 3], "shadows": True}]
+        strands = [(p[o[s]:o[s + 1]], r[o[s]:o[s + 1]]) for s in range(len(o) - 1)]
+        return _parse(d, os.getcwd(), "<arrays>", strands)
+
 
 # -- validation helpers --------------------------------------------------------
 
@@ -153,7 +191,7 @@ class _Ctx:
     def __init__(self, source: str):
         self.source = source
 
-    def fail(self, path: str, msg: str) -> None:
+    def fail(self, path: str, msg: str) -> NoReturn:
         raise SceneError(f"{self.source}: {path}: {msg}")
 
     def obj(self, v: Any, path: str) -> dict[str, Any]:
@@ -188,7 +226,38 @@ class _Ctx:
         return v
 
 
-def _parse(d: Any, base_dir: str, source: str) -> Scene:
+def _strand_arrays(points: npt.ArrayLike, radii: npt.ArrayLike, offsets: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Checked flat strand arrays: (points (M, 3) f64, radii (M,) f64, offsets (S + 1,) int64)."""
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise SceneError(f"points: expected shape (M, 3), got {p.shape}")
+    r = np.asarray(radii, dtype=np.float64)
+    if r.ndim == 0:
+        r = np.full(len(p), float(r))
+    if r.shape != (len(p),):
+        raise SceneError(f"radii: expected a scalar or shape ({len(p)},), got {r.shape}")
+    o = np.asarray(offsets)
+    if o.ndim != 1 or o.dtype.kind not in "iu" or len(o) < 1:
+        raise SceneError(f"offsets: expected a 1-d integer array of S + 1 entries, got {o.dtype} {o.shape}")
+    o = o.astype(np.int64)
+    if o[0] != 0 or o[-1] != len(p):
+        raise SceneError(f"offsets: must start at 0 and end at len(points) = {len(p)}, got {o[0]} ... {o[-1]}")
+    short = np.flatnonzero(np.diff(o) < 2)
+    if len(short):
+        raise SceneError(f"offsets: strand {short[0]} has {o[short[0] + 1] - o[short[0]]} points (at least 2, increasing offsets)")
+    bad = np.flatnonzero(~np.isfinite(p).all(axis=1))
+    if len(bad):
+        raise SceneError(f"points[{bad[0]}]: must be finite, got {p[bad[0]].tolist()}")
+    bad = np.flatnonzero(~(np.isfinite(r) & (r >= 0)))
+    if len(bad):
+        raise SceneError(f"radii[{bad[0]}]: must be finite and >= 0, got {r[bad[0]]}")
+    return p, r, o
+
+
+def _parse(d: Any, base_dir: str, source: str,
+           strands: list[tuple[np.ndarray, np.ndarray]] | None = None) -> Scene:
+    """The validated scene of the dict ``d``; ``strands``: (points, radii)
+    of further strands, already checked (Scene.from_arrays)."""
     c = _Ctx(source)
     d = c.obj(d, "(top level)")
     c.known(d, "", {"hairshade_scene", "camera", "lights", "hair", "meshes", "render"})
@@ -277,7 +346,7 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
         f = hair["file"]
         if not isinstance(f, str):
             c.fail("hair.file", f"expected a path, got {f!r}")
-        fpts, frads = _read_strand_file(os.path.join(base_dir, f), c)
+        fpts, frads = _read_hair_file(os.path.join(base_dir, f), c)
         pts += fpts
         rads += frads
     if "generate" in hair:
@@ -289,6 +358,9 @@ def _parse(d: Any, base_dir: str, source: str) -> Scene:
             c.fail("hair.generate", str(e))
         pts += gp
         rads += gr
+    for sp, sr in strands or []:
+        pts.append(sp)
+        rads.append(sr)
     offsets = np.zeros(len(pts) + 1, dtype=np.uint32)
     offsets[1:] = np.cumsum([len(p) for p in pts]) if pts else []
     points = np.concatenate(pts).astype(np.float32) if pts else np.zeros((0, 3), np.float32)
@@ -440,6 +512,22 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         # The fibers baked cards stand for (None unless every card is baked).
         fibers=(fiber_pts, fiber_rads) if all_baked else None,
     )
+
+
+def _read_hair_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """A hair file's strands as lists of (points, radii): ``.hair``
+    (binary, :mod:`hairshade.hairfile`) or the text format."""
+    if not path.lower().endswith(".hair"):
+        return _read_strand_file(path, c)
+    from .hairfile import read_hair
+
+    try:
+        p, r, o = read_hair(path)
+    except FileNotFoundError:
+        c.fail("hair.file", f"{path}: file not found")
+    except ValueError as e:
+        c.fail("hair.file", str(e))
+    return np.split(p.astype(np.float64), o[1:-1]), np.split(r.astype(np.float64), o[1:-1])
 
 
 def _read_strand_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:

@@ -132,8 +132,10 @@ def white_furnace(variant: str | None = None, n_y: int = 384, n_phi: int = 768) 
 
 def throughput(n: int = 1 << 20, repeats: int = 5, variant: str | None = None) -> dict[str, float]:
     """evals/s of ChiangHair.eval (f32, f64) and Mitsuba's hair eval on the
-    same 2^20 random pairs, interleaved in one run; best of `repeats`."""
-    from .mitsuba import MitsubaHair
+    same 2^20 random pairs, interleaved in one run; best of `repeats`.
+    Mitsuba is called directly, numpy to numpy and data resident
+    (:func:`hairshade.benchmark.mitsuba_cases`)."""
+    from .benchmark import mitsuba_cases
 
     rng = np.random.default_rng(1)
     v = rng.normal(size=(2, n, 3))
@@ -141,12 +143,12 @@ def throughput(n: int = 1 << 20, repeats: int = 5, variant: str | None = None) -
     wi, wo = v
     wi32, wo32 = wi.astype(np.float32), wo.astype(np.float32)
     c = ChiangHair()
-    mi = MitsubaHair(c, variant)
     cases = {
         "hairshade f32": lambda: c.eval(wi32, wo32),
         "hairshade f64": lambda: c.eval(wi, wo),
-        f"Mitsuba {mi.variant}": lambda: mi.eval(wi, wo),
     }
+    for var, path, fn in mitsuba_cases(c, wi, wo, variant):
+        cases[f"Mitsuba {var} {path}"] = fn
     for f in cases.values():  # warm-up (JIT compilation, thread pools)
         f()
     best = {k: np.inf for k in cases}

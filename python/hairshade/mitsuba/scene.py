@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import tempfile
 import time
 from typing import TYPE_CHECKING, Any
@@ -17,6 +16,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from .._progress import Bar
 from ..chiang import ChiangHair
 from . import default_variant
 from .bsdf import hair_dict
@@ -202,11 +202,9 @@ def _render_passes(scene: "Scene", spp: int, integrator: str, max_depth: int, wi
                    passes: int | None, seed: int, progress: bool | None, hair_params: dict[str, Any] | None,
                    hair_bsdf: str, timing: dict[str, float]) -> np.ndarray:
     passes = max(1, min(passes or 8, spp))
-    show = sys.stderr.isatty() if progress is None else progress
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, Bar(passes, "mitsuba", unit="pass", enabled=progress) as bar:
         per = [spp // passes + (1 if k < spp % passes else 0) for k in range(passes)]
         acc = None
-        start = time.perf_counter()
         timing.update(load_s=0.0, render_s=0.0)
         for k, n in enumerate(per):
             t0 = time.perf_counter()
@@ -217,9 +215,5 @@ def _render_passes(scene: "Scene", spp: int, integrator: str, max_depth: int, wi
             timing["load_s"] += t1 - t0
             timing["render_s"] += time.perf_counter() - t1
             acc = img if acc is None else acc + img
-            if show:
-                sys.stderr.write(f"\rmitsuba [{'#' * int(30 * (k + 1) / passes):30s}] pass {k + 1}/{passes} {time.perf_counter() - start:5.1f}s")
-                sys.stderr.flush()
-        if show:
-            sys.stderr.write("\n")
+            bar.update_to(k + 1)
     return (acc / spp).astype(np.float32)[..., :3]
