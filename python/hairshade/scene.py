@@ -63,8 +63,15 @@ A scene file::
   segment; cards are always shaded per pixel).
 - ``render.background`` is the radiance behind everything when the scene
   has no environment light; with one, the environment itself is seen.
+- ``render.transparency``: ``mlab`` (default: Multi-Layer Alpha Blending
+  of anti-aliased footprints, ``layers`` per pixel), ``sorted`` (every
+  fragment, composited in depth order) or ``coverage`` (hair as opaque
+  sub-pixel geometry: the nearest fiber per coverage sample, ``samples``
+  per pixel, 1 to 64, default 16; thin strands add up to their true area,
+  hair hides what lies behind it, and only visible fragments are shaded;
+  cards cover samples by alpha to coverage).
 - ``render`` takes every render option of :func:`hairshade.render`
-  (``transparency``, ``layers``, ``shadow_map_size``, ``shadow_model``,
+  (``transparency``, ``layers``, ``samples``, ``shadow_map_size``, ``shadow_model``,
   ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
   culling switches, ``light_cull_threshold``, ``density_resolution``,
   ``multiple_scattering``, ``dual_forward_density``,

@@ -20,7 +20,9 @@
 //!    [`coverage`], depth-tested; opaque culling per tile), shading of the
 //!    tile's hair fragments in one batch ([`shade`]), resolve of the
 //!    transparency layers ([`oit`]: Multi-Layer Alpha Blending or an exact
-//!    sorted composite) over the opaque surface;
+//!    sorted composite) over the opaque surface; or, with coverage samples
+//!    ([`samples`]), the nearest fragment per sample, only those owning a
+//!    sample shaded, each pixel the mean over its samples;
 //! 6. tiles copied into the image.
 //!
 //! Rendering is deterministic: every tile processes its primitives in
