@@ -70,12 +70,17 @@ A scene file::
   per pixel, 1 to 64, default 16; thin strands add up to their true area,
   hair hides what lies behind it, and only visible fragments are shaded;
   cards cover samples by alpha to coverage).
+- An environment light shades KarisHair by its environment variant, and
+  ChiangHair and DEonHair by a spherical quadrature of
+  ``render.environment_directions`` directions (8 to 1024, default 32), each
+  dimmed by the fibers on its way (a density grid at a quarter of
+  ``density_resolution``; dual scattering applies to it as to a light).
 - ``render`` takes every render option of :func:`hairshade.render`
   (``transparency``, ``layers``, ``samples``, ``shadow_map_size``, ``shadow_model``,
   ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
   culling switches, ``light_cull_threshold``, ``density_resolution``,
   ``multiple_scattering``, ``dual_forward_density``,
-  ``dual_back_density``); their types and ranges are
+  ``dual_back_density``, ``environment_directions``); their types and ranges are
   checked by the renderer itself (``hairshade._native.render_options``), the
   one place they are defined.
 - Every field is checked on load; an error names the file, the field's path
@@ -380,8 +385,6 @@ def _parse(d: Any, base_dir: str, source: str,
     if model not in ("karis", "chiang", "deon"):
         c.fail("hair.material.model", f"expected 'karis', 'chiang' or 'deon', got {model!r}")
     mat["model"] = model
-    if model != "karis" and env is not None:
-        c.fail("lights", f"an environment light needs the karis material ({model} has no environment variant)")
 
     spheres = []
     obj_meshes = []

@@ -172,6 +172,7 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
     let (s0, s1) = RenderOptions::SHADOW_MAP_SIZE;
     let (p0, p1) = RenderOptions::PCF_RADIUS;
     let (d0, d1) = RenderOptions::DENSITY_RESOLUTION;
+    let (e0, e1) = crate::raster::env_light::DIRECTIONS_RANGE;
     let transparency = r.choice("transparency", "mlab", &["mlab", "sorted", "coverage"])?;
     let (c0, c1) = crate::raster::samples::SAMPLES;
     let samples = r.int("samples", 16, c0 as i64, c1 as i64)? as usize;
@@ -238,6 +239,12 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         )? as f32,
         dual_back_density: r.num("dual_back_density", def.dual_back_density as f64, 0.0, 1.0)?
             as f32,
+        environment_directions: r.int(
+            "environment_directions",
+            def.environment_directions as i64,
+            e0 as i64,
+            e1 as i64,
+        )? as usize,
     };
     r.finish()?;
     Ok((opts, (layers, samples)))
@@ -291,6 +298,7 @@ fn options_dict<'py>(
     )?;
     d.set_item("dual_forward_density", o.dual_forward_density as f64)?;
     d.set_item("dual_back_density", o.dual_back_density as f64)?;
+    d.set_item("environment_directions", o.environment_directions)?;
     Ok(d)
 }
 

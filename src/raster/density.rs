@@ -394,6 +394,20 @@ impl DensityGrid {
 }
 
 impl FiberCount {
+    /// [`Self::at`] at a point of a fiber of radius `r` and unit tangent
+    /// `t`, for the light towards unit `d`, with the fiber's own share left
+    /// out: the grid holds every fiber's cross-section, this one's too, and
+    /// the count at a point holds on average half a voxel of its own voxel,
+    /// about `r·|t × d| / voxel` of it the fiber itself (its projected
+    /// width over the voxel's). Without this a lone fiber of radius 0.5
+    /// voxel received 0.40 of a constant environment.
+    #[inline]
+    pub fn at_fiber(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> (f32, f32) {
+        let (n, clear) = self.at(p);
+        let own = r * t.cross(d).length() / self.voxel;
+        ((n - own).max(0.0), clear)
+    }
+
     /// `(n, clear)` at `p`: the expected fibers crossed on the way to the
     /// light and the fraction of the path clear of opaque geometry
     /// (trilinear between voxel centres; outside the grid (0, 1)).

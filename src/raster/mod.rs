@@ -33,6 +33,7 @@ pub mod bin;
 pub mod coverage;
 pub mod cull;
 pub mod density;
+pub mod env_light;
 pub mod oit;
 pub mod samples;
 pub mod scene;
@@ -137,7 +138,18 @@ pub fn render_with_progress(
     let traced = (opts.shadow_model == shadow::ShadowModel::Traced)
         .then(|| traced::SegmentGrid::new(&world))
         .flatten();
-    let shader = Shader::new(scene, &shadows, counts, traced, opts);
+    let env_lights = match (&scene.environment, &scene.hair) {
+        (Some(env), scene::HairShading::ChiangFar(_) | scene::HairShading::DEon(_)) => {
+            Some(env_light::EnvLights::new(
+                scene,
+                env,
+                opts.environment_directions,
+                opts.density_resolution,
+            ))
+        }
+        _ => None,
+    };
+    let shader = Shader::new(scene, &shadows, counts, traced, env_lights, opts);
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();

@@ -241,6 +241,9 @@ pub struct RenderOptions {
     /// (local back scattering) of dual scattering.
     pub dual_forward_density: f32,
     pub dual_back_density: f32,
+    /// Quadrature directions of the environment light for far-field models
+    /// ([`super::env_light`]).
+    pub environment_directions: usize,
 }
 
 impl RenderOptions {
@@ -276,6 +279,7 @@ impl Default for RenderOptions {
             multiple_scattering: None,
             dual_forward_density: 0.7,
             dual_back_density: 0.7,
+            environment_directions: super::env_light::DIRECTIONS,
         }
     }
 }

@@ -74,6 +74,8 @@ pub struct Shader<'a> {
     count_shadows: bool,
     /// The strands for ray-traced shadows (shadow model `traced`).
     traced: Option<SegmentGrid>,
+    /// The environment as directional lights (ChiangHair, DEonHair).
+    env_lights: Option<super::env_light::EnvLights>,
     /// Upper bound of the hair BSDF's value over all directions (KarisHair;
     /// `None`: no light culling).
     f_max: Option<f32>,
@@ -101,6 +103,7 @@ impl<'a> Shader<'a> {
         shadows: &'a ShadowMaps,
         counts: Vec<Option<FiberCount>>,
         traced: Option<SegmentGrid>,
+        env_lights: Option<super::env_light::EnvLights>,
         opts: &RenderOptions,
     ) -> Self {
         let (skip_unused, cull_threshold) = (opts.skip_unused, opts.light_cull_threshold);
@@ -139,6 +142,7 @@ impl<'a> Shader<'a> {
             dual,
             count_shadows: opts.shadow_model == super::shadow::ShadowModel::Density,
             traced,
+            env_lights,
             f_max,
             cull_threshold,
             culled: Default::default(),
@@ -332,7 +336,10 @@ impl<'a> Shader<'a> {
             return 0.0;
         }
         match self.counts.get(li).and_then(Option::as_ref) {
-            Some(c) if vis > 0.0 && self.count_shadows => vis * (-c.at(p).0).exp(),
+            Some(c) if vis > 0.0 && self.count_shadows => {
+                let l = self.scene.lights[li].incident(p).0;
+                vis * (-c.at_fiber(p, fiber.radius, t, l).0).exp()
+            }
             _ => vis,
         }
     }
@@ -384,6 +391,54 @@ impl<'a> Shader<'a> {
         )
     }
 
+    /// What a fiber with tangent `t` scatters towards `v` from irradiance
+    /// `e` arriving from direction `l`: the model's far field times the
+    /// unscattered fraction `vis`, or under dual scattering its effective
+    /// far field with `count = (n, clear)`, the fibers crossed towards the
+    /// light and the part of the way free of opaque geometry.
+    #[allow(clippy::too_many_arguments)]
+    fn fiber_response(
+        &self,
+        l: Vec3,
+        v: Vec3,
+        t: Vec3,
+        e: Vec3,
+        vis: f32,
+        count: (f32, f32),
+    ) -> Vec3 {
+        if let (Some((dual, d_f)), HairShading::ChiangFar(c)) = (&self.dual, &self.hair) {
+            let g = FiberAngles::new(t, v, l);
+            let (n, clear) = count;
+            return Vec3::from(dual.shade_chiang(c, g.view, g.light, g.phi, vis, n, clear, *d_f))
+                * e;
+        }
+        if vis <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let f = match &self.hair {
+            HairShading::Karis(k) => {
+                let tr = Transmittance {
+                    shadow: vis,
+                    ..Default::default()
+                };
+                Vec3::from(k.eval(&l.to_array(), &v.to_array(), &t.to_array(), &tr))
+            }
+            HairShading::ChiangFar(c) => {
+                // Mitsuba's convention: wi towards the viewer (its offset h is
+                // the one averaged across the fiber's visible width), wo towards
+                // the light.
+                let g = FiberAngles::new(t, v, l);
+                let lobes = c.lobes_from_angles(g.view, g.light, g.phi);
+                Vec3::from(lobes[0])
+                    + Vec3::from(lobes[1])
+                    + Vec3::from(lobes[2])
+                    + Vec3::from(lobes[3])
+            }
+            HairShading::DEon(d) => Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array())),
+        };
+        f * e * vis
+    }
+
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
     pub fn shade(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
         let mut out = Vec3::ZERO;
@@ -394,40 +449,20 @@ impl<'a> Shader<'a> {
                 continue;
             }
             let vis = self.hair_visibility(li, sm, p, t, v, fiber);
-            if let (Some((dual, d_f)), HairShading::ChiangFar(c)) = (&self.dual, &self.hair) {
-                let (n, clear) = self.counts[li].as_ref().map_or((0.0, 1.0), |c| c.at(p));
-                let g = FiberAngles::new(t, v, l);
-                let f = dual.shade_chiang(c, g.view, g.light, g.phi, vis, n, clear, *d_f);
-                out += Vec3::from(f) * e;
-                continue;
-            }
-            if vis <= 0.0 {
-                continue;
-            }
-            let f = match &self.hair {
-                HairShading::Karis(k) => {
-                    let tr = Transmittance {
-                        shadow: vis,
-                        ..Default::default()
-                    };
-                    Vec3::from(k.eval(&l.to_array(), &v.to_array(), &t.to_array(), &tr))
-                }
-                HairShading::ChiangFar(c) => {
-                    // Mitsuba's convention: wi towards the viewer (its offset h is
-                    // the one averaged across the fiber's visible width), wo towards
-                    // the light.
-                    let g = FiberAngles::new(t, v, l);
-                    let lobes = c.lobes_from_angles(g.view, g.light, g.phi);
-                    Vec3::from(lobes[0])
-                        + Vec3::from(lobes[1])
-                        + Vec3::from(lobes[2])
-                        + Vec3::from(lobes[3])
-                }
-                HairShading::DEon(d) => {
-                    Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array()))
-                }
+            let count = match (&self.dual, &self.counts[li]) {
+                (Some(_), Some(c)) => c.at_fiber(p, fiber.radius, t, l),
+                _ => (0.0, 1.0),
             };
-            out += f * e * vis;
+            out += self.fiber_response(l, v, t, e, vis, count);
+        }
+        if let Some(env) = &self.env_lights {
+            // The environment's directions: what the fibers on the way let
+            // through (see `env_light`).
+            for (k, light) in env.lights.iter().enumerate() {
+                let (l, e) = light.incident(p);
+                let (n, clear) = env.count(k, p, fiber.radius, t, l);
+                out += self.fiber_response(l, v, t, e, clear * (-n).exp(), (n, clear));
+            }
         }
         self.flush(tally);
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
@@ -660,7 +695,7 @@ mod tests {
             light_cull_threshold: 0.0,
             ..Default::default()
         };
-        let shader = Shader::new(&scene, &shadows, vec![None; 2], None, &opts);
+        let shader = Shader::new(&scene, &shadows, vec![None; 2], None, None, &opts);
         let eye = scene.camera.position;
         let batched = shade_vertices(&scene, &shader, eye, None);
         let st = &scene.strands;
