@@ -31,6 +31,7 @@ pub mod bin;
 pub mod coverage;
 pub mod cull;
 pub mod density;
+pub mod memory;
 pub mod oit;
 pub mod scene;
 pub mod setup;
@@ -118,10 +119,7 @@ pub fn render_with_progress(
 
     // 1. Bounds, view, world-space segments.
     let bounds = setup::scene_bounds(scene);
-    let view = View::new(
-        &scene.camera,
-        (bounds.center - scene.camera.position).length() + bounds.radius,
-    );
+    let view = View::new(&scene.camera, setup::near_reference(scene, bounds));
     let world = setup::world_segments(&scene.strands);
 
     // 2. Shadow maps.
