@@ -6,6 +6,7 @@
 (3,)
 """
 
+from . import _env  # noqa: F401  (checks the environment first)
 from . import lobes
 from ._native import __version__, num_threads
 from .chiang import ChiangHair
