@@ -21,7 +21,8 @@ from . import _memory
 #: Peak bytes per generated vertex, the strands and their temporaries
 #: included: 161 (head) and 83 (bundle) measured with tracemalloc for
 #: 20000 strands x 16 segments (154 and 72 at 5000 x 64), through the
-#: float32 copy a scene makes; rounded up by 10 %.
+#: float32 copy a scene makes (``scripts/generate_memory.py``); rounded up
+#: by 10 %.
 BYTES_PER_VERTEX = 176
 
 

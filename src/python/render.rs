@@ -569,6 +569,20 @@ pub fn render<'py>(
             )));
         }
     }
+    // The estimate reserved at once and released: address space the system
+    // will not give (an RLIMIT_AS cap, overcommit refused) is a MemoryError
+    // here rather than an abort part-way through the render.
+    if Vec::<u8>::new()
+        .try_reserve_exact(memory.total() as usize)
+        .is_err()
+    {
+        return Err(PyMemoryError::new_err(format!(
+            "render: cannot reserve the {} bytes it needs (largest part: {} {} bytes)",
+            memory.total(),
+            memory.largest().0,
+            memory.largest().1
+        )));
+    }
     let total = crate::raster::tile_count(&scene);
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
     let result = run_polling(
