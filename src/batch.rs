@@ -25,6 +25,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 static STOP: AtomicBool = AtomicBool::new(false);
 static STOP_EPOCH: AtomicU64 = AtomicU64::new(0);
 
+/// Pairs between two looks at [`STOP`] inside a chunk.
+const STOP_CHECK: usize = 64;
+
 /// Whether running batches are asked to stop.
 #[inline]
 pub fn stopped() -> bool {
@@ -139,9 +142,16 @@ where
                 if stopped() {
                     return;
                 }
-                let base = k * chunk;
-                for (j, o) in part.chunks_exact_mut(W).enumerate() {
-                    o.copy_from_slice(&f(base + j));
+                // Slow models (DEonHair converged: ~1 ms a pair) also
+                // look between groups of STOP_CHECK pairs of a chunk.
+                for (g, group) in part.chunks_mut(W * STOP_CHECK).enumerate() {
+                    if g > 0 && stopped() {
+                        return;
+                    }
+                    let base = k * chunk + g * STOP_CHECK;
+                    for (j, o) in group.chunks_exact_mut(W).enumerate() {
+                        o.copy_from_slice(&f(base + j));
+                    }
                 }
             })
     });
@@ -220,6 +230,9 @@ fn sample_chunks<T: Real, F>(
             }
             let base = k * chunk;
             for j in 0..pdf.len() {
+                if j % STOP_CHECK == 0 && j > 0 && stopped() {
+                    return;
+                }
                 let i = base + j;
                 let (a, b, c) = (u1[i], u2[2 * i], u2[2 * i + 1]);
                 let ok = a.is_finite() && b.is_finite() && c.is_finite();
