@@ -13,6 +13,61 @@ use crate::fiber::karis::{KarisHair, KarisInputs, KarisLobes, LobeVisitor, Trans
 use crate::math::Real;
 use crate::threads::pool;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// Cooperative stop of running batches (Ctrl-C): [`StopBatches`] raises
+/// [`STOP`] while the interrupted caller waits for its batch; every chunk
+/// loop checks it before starting a chunk. [`STOP_EPOCH`] is odd while a
+/// stop is under way and grows by two per stop, so a batch that started at
+/// an even epoch and ends at the same epoch never skipped a chunk
+/// ([`ran_whole`]); any other batch returns an incomplete result, which the
+/// bindings turn into `KeyboardInterrupt`.
+static STOP: AtomicBool = AtomicBool::new(false);
+static STOP_EPOCH: AtomicU64 = AtomicU64::new(0);
+
+/// Pairs between two looks at [`STOP`] inside a chunk.
+const STOP_CHECK: usize = 64;
+
+/// Whether running batches are asked to stop.
+#[inline]
+pub fn stopped() -> bool {
+    STOP.load(Ordering::Relaxed)
+}
+
+/// The stop epoch, to pass to [`ran_whole`] after a batch.
+pub fn stop_epoch() -> u64 {
+    STOP_EPOCH.load(Ordering::SeqCst)
+}
+
+/// Whether no stop happened since `epoch` (taken before the batch began).
+pub fn ran_whole(epoch: u64) -> bool {
+    epoch % 2 == 0 && STOP_EPOCH.load(Ordering::SeqCst) == epoch
+}
+
+/// A stop of every running batch, from creation until drop (hold it while
+/// waiting for the interrupted batch; batches run again after it).
+pub struct StopBatches(());
+
+impl StopBatches {
+    pub fn new() -> Self {
+        STOP_EPOCH.fetch_add(1, Ordering::SeqCst);
+        STOP.store(true, Ordering::SeqCst);
+        Self(())
+    }
+}
+
+impl Default for StopBatches {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Drop for StopBatches {
+    fn drop(&mut self) {
+        STOP.store(false, Ordering::SeqCst);
+        STOP_EPOCH.fetch_add(1, Ordering::SeqCst);
+    }
+}
 
 /// Pairs per parallel task: large enough to amortize scheduling, small
 /// enough to balance two to a few dozen threads.
@@ -84,9 +139,19 @@ where
         out.par_chunks_mut(W * chunk)
             .enumerate()
             .for_each(|(k, part)| {
-                let base = k * chunk;
-                for (j, o) in part.chunks_exact_mut(W).enumerate() {
-                    o.copy_from_slice(&f(base + j));
+                if stopped() {
+                    return;
+                }
+                // Slow models (DEonHair converged: ~1 ms a pair) also
+                // look between groups of STOP_CHECK pairs of a chunk.
+                for (g, group) in part.chunks_mut(W * STOP_CHECK).enumerate() {
+                    if g > 0 && stopped() {
+                        return;
+                    }
+                    let base = k * chunk + g * STOP_CHECK;
+                    for (j, o) in group.chunks_exact_mut(W).enumerate() {
+                        o.copy_from_slice(&f(base + j));
+                    }
                 }
             })
     });
@@ -160,8 +225,14 @@ fn sample_chunks<T: Real, F>(
         .zip(pdf.par_chunks_mut(chunk))
         .enumerate()
         .for_each(|(k, ((wo, weight), pdf))| {
+            if stopped() {
+                return;
+            }
             let base = k * chunk;
             for j in 0..pdf.len() {
+                if j % STOP_CHECK == 0 && j > 0 && stopped() {
+                    return;
+                }
                 let i = base + j;
                 let (a, b, c) = (u1[i], u2[2 * i], u2[2 * i + 1]);
                 let ok = a.is_finite() && b.is_finite() && c.is_finite();
@@ -329,7 +400,9 @@ pub fn karis_eval_simd<const LOBES: bool>(
         out.par_chunks_mut(w * chunk)
             .enumerate()
             .for_each(|(k, part)| {
-                crate::fiber::karis::simd::eval_range::<LOBES>(m, inp, k * chunk, part, level)
+                if !stopped() {
+                    crate::fiber::karis::simd::eval_range::<LOBES>(m, inp, k * chunk, part, level)
+                }
             })
     });
 }
@@ -359,7 +432,9 @@ pub fn chiang_eval_simd(
         out.par_chunks_mut(3 * chunk)
             .enumerate()
             .for_each(|(k, part)| {
-                crate::fiber::chiang::simd::eval_range(m, wi, wo, k * chunk, part, level)
+                if !stopped() {
+                    crate::fiber::chiang::simd::eval_range(m, wi, wo, k * chunk, part, level)
+                }
             })
     });
 }

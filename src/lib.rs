@@ -15,6 +15,7 @@
 //! The Python extension (`hairshade._native`, cargo feature `python`) is a
 //! thin layer over these modules; nothing here depends on Python.
 
+pub mod alloc;
 pub mod batch;
 pub mod fiber;
 pub mod image_io;

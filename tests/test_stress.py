@@ -142,20 +142,36 @@ def test_05_rasterizer_hostile_scenes(pts, radius, cam_z, light_inside):
         _check(hs.render(s))
 
 
-@pytest.mark.slow  # 20 s of fuzzing by design, ~25 s with start-up
-def test_06_fuzz_scene_loader(tmp_path):
-    """The atheris target for 20 s from the seed corpus: no crash, no
-    exception other than SceneError, no NaN pixel."""
+def _fuzz(target: str, corpus: str, seconds: int, tmp_path, *flags: str) -> None:
+    """Runs the atheris target `fuzz/<target>` for `seconds` from a copy of
+    its seed corpus `fuzz/<corpus>`; any finding fails with its report."""
     here = pathlib.Path(__file__).parent / "fuzz"
-    corpus = tmp_path / "corpus"
-    shutil.copytree(here / "corpus", corpus)
+    work = tmp_path / "corpus"
+    shutil.copytree(here / corpus, work)
     r = subprocess.run(
-        [sys.executable, str(here / "fuzz_scene.py"), str(corpus), "-max_total_time=20", "-rss_limit_mb=4096",
+        [sys.executable, str(here / target), str(work), f"-max_total_time={seconds}", *flags,
          f"-artifact_prefix={tmp_path}/"],
         capture_output=True, text=True, timeout=300,
     )
     assert r.returncode == 0, r.stderr[-3000:]
     assert "Done" in r.stderr
+
+
+@pytest.mark.slow  # 20 s of fuzzing by design, ~25 s with start-up
+def test_06_fuzz_scene_loader(tmp_path):
+    """The atheris target for 20 s from the seed corpus: no crash, no
+    exception other than SceneError, no NaN pixel."""
+    _fuzz("fuzz_scene.py", "corpus", 20, tmp_path, "-rss_limit_mb=4096")
+
+
+@pytest.mark.slow  # 15 s of fuzzing by design, ~20 s with start-up
+def test_08_fuzz_file_loaders(tmp_path):
+    """The atheris target of the PNG, EXR, OBJ, strand-file and scene
+    loaders for 15 s from its seed corpus (headers claiming huge sizes
+    among the seeds), under a 3 GiB address-space cap: no abort, no
+    exception other than the loaders' documented ones, results that match
+    what the file declares."""
+    _fuzz("fuzz_files.py", "corpus_files", 15, tmp_path, "-timeout=20")
 
 
 def test_07_a_million_sub_pixel_strands_in_bounded_memory():

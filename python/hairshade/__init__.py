@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING, Any
 
+from . import _env  # noqa: F401  (checks the environment first)
 from . import lobes
 from ._native import __version__, num_threads
 from .chiang import ChiangHair

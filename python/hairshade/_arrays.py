@@ -35,8 +35,11 @@ def common_dtype(arrays: Sequence[np.ndarray]) -> type:
 
 
 def directions(x: npt.ArrayLike, name: str) -> np.ndarray:
-    """Validates a (N, 3) or (3,) direction array (dtype left as given)."""
+    """Validates a (N, 3) or (3,) direction array (dtype left as given;
+    booleans are not directions)."""
     a = _as_array(x, name)
+    if a.dtype.kind == "b":
+        raise ValueError(f"{name}: expected real numbers, got booleans")
     if a.ndim == 1 and a.shape[0] == 3:
         return a
     if a.ndim == 2 and a.shape[1] == 3 and a.shape[0] > 0:

@@ -35,8 +35,29 @@ def components(value: str | Iterable[str], allowed: tuple[str, ...]) -> list[str
     return names
 
 
+def scalar(value: object, name: str) -> float:
+    """A real-number parameter as float: ints, floats and numpy scalars
+    (not bools, not strings); the error names the parameter."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name}: expected a number, got {value!r:.80}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise ValueError(f"{name}: too large for a float, got an integer of {len(str(abs(int(value))))} digits") from None
+
+
+def flag(value: object, name: str) -> bool:
+    """A boolean parameter (True/False only)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, got {value!r:.80}")
+    return bool(value)
+
+
 def rgb(value: npt.ArrayLike, name: str) -> list[float]:
-    a = np.asarray(value, dtype=np.float64)
+    raw = np.asarray(value) if not isinstance(value, str) else None
+    if raw is None or raw.dtype.kind not in "fiu":
+        raise TypeError(f"{name}: expected a number or 3 numbers, got {value!r:.80}")
+    a = raw.astype(np.float64)
     if a.ndim == 0:
         a = np.repeat(a, 3)
     if a.shape != (3,):
@@ -59,9 +80,12 @@ def triples(L: npt.ArrayLike, V: npt.ArrayLike, T: npt.ArrayLike) -> tuple[list[
     return [_arrays.flat(a, dtype) for a in arrs], dtype, n, single
 
 
-def per_pair(value: npt.ArrayLike, name: str, n: int, dtype: type, rgb_values: bool) -> tuple[np.ndarray, bool]:
+def per_pair(value: npt.ArrayLike, name: str, n: int, dtype: type, rgb_values: bool,
+             bounds: tuple[float, float] | None = None) -> tuple[np.ndarray, bool]:
     """A per-pair input: scalar or (N,) (rgb_values False); scalar, (3,) or
-    (N, 3) (rgb_values True). Returns (flat array, is_single)."""
+    (N, 3) (rgb_values True), its finite values within ``bounds`` when
+    given (non-finite ones give a 0 result, like degenerate directions).
+    Returns (flat array, is_single)."""
     a = np.asarray(value)
     if a.dtype.kind not in "fiub":
         raise ValueError(f"{name}: expected real numbers, got dtype {a.dtype}")
@@ -77,5 +101,12 @@ def per_pair(value: npt.ArrayLike, name: str, n: int, dtype: type, rgb_values: b
         want = f"a scalar or ({n},)"
     if not ok:
         raise ValueError(f"{name}: expected {want}, got shape {np.shape(value)}")
+    if bounds is not None:
+        lo, hi = bounds
+        with np.errstate(invalid="ignore"):
+            bad = np.isfinite(a) & ((a < lo) | (a > hi))
+        if np.any(bad):
+            k = int(np.flatnonzero(bad.reshape(-1))[0])
+            raise ValueError(f"{name}: must be in [{lo}, {hi}], got {a.reshape(-1)[k]} (value {k})")
     single = a.shape in ((1,), (3,))
     return _arrays.flat(a, dtype), single

@@ -13,8 +13,9 @@ texture, thinning towards the tip.
 
 from __future__ import annotations
 
+import functools
 import os
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -25,6 +26,13 @@ def bake_fibers(fibers: int = 24, fiber_width: float = 0.04, seed: int = 1) -> n
     """The strands a baked card stands for: rows (u0, amplitude, frequency,
     phase, end) of fibers ``u(v) = u0 + amplitude sin(2 pi frequency v + phase)``
     for v in [0, end]."""
+    return _bake_fibers(fibers, fiber_width, seed).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _bake_fibers(fibers: int, fiber_width: float, seed: int) -> np.ndarray:
+    """:func:`bake_fibers`, computed once per parameters (cards of a head
+    share a few seeds)."""
     if not (1 <= fibers <= 4096):
         raise ValueError(f"fibers: must be in [1, 4096], got {fibers}")
     if not (0 < fiber_width <= 1):
@@ -35,6 +43,7 @@ def bake_fibers(fibers: int = 24, fiber_width: float = 0.04, seed: int = 1) -> n
         u0 = rng.uniform(0.1, 0.9)
         amp, freq, phase = rng.uniform(0.0, 0.05), rng.uniform(0.5, 2.0), rng.uniform(0, 2 * np.pi)
         out[k] = (u0, amp, freq, phase, rng.uniform(0.55, 1.0))
+    out.flags.writeable = False
     return out
 
 
@@ -66,44 +75,90 @@ def card_fiber_strands(points: np.ndarray, width: float, normal: np.ndarray, bak
     t = np.vstack([seg[:1], seg[:-1] + seg[1:], seg[-1:]])
     b = np.cross(t, normal)
     b /= np.linalg.norm(b, axis=1, keepdims=True)
-    fw = float(bake.get("fiber_width", 0.04))
-    fibers = bake_fibers(int(bake.get("fibers", 24)), fw, int(bake.get("seed", 1)))
-    pts, rads = [], []
-    for u0, amp, freq, phase, end in fibers:
-        v = np.linspace(0.0, end, samples)
-        u = u0 + amp * np.sin(2 * np.pi * freq * v + phase)
-        spine = np.stack([np.interp(v, v_knots, p[:, k]) for k in range(3)], -1)
-        side = np.stack([np.interp(v, v_knots, b[:, k]) for k in range(3)], -1)
-        side /= np.linalg.norm(side, axis=1, keepdims=True)
-        pts.append(spine + (u - 0.5)[:, None] * width * side)
-        rads.append(np.full(samples, 0.25 * fw * width))
-    return pts, rads
+    n, fw, seed = _bake_params(bake)
+    f = _bake_fibers(n, fw, seed)
+    u0, amp, freq, phase, end = (f[:, k : k + 1] for k in range(5))
+    # Every fiber at once: v = linspace(0, end, samples) per row.
+    v = np.arange(samples) * (end / (samples - 1))
+    v[:, -1] = end[:, 0]
+    u = u0 + amp * np.sin(2 * np.pi * freq * v + phase)
+    spine = np.stack([np.interp(v, v_knots, p[:, k]) for k in range(3)], -1)
+    side = np.stack([np.interp(v, v_knots, b[:, k]) for k in range(3)], -1)
+    side /= np.linalg.norm(side, axis=-1, keepdims=True)
+    strands = spine + (u - 0.5)[..., None] * width * side
+    r = np.full(samples, 0.25 * fw * width)
+    return list(strands), [r.copy() for _ in range(len(f))]
 
 
-def load_alpha(spec: dict[str, Any], base_dir: str) -> np.ndarray:
+#: Largest alpha image file read, in bytes.
+MAX_IMAGE_BYTES = 1 << 30
+
+
+def _bake_params(b: Any) -> tuple[int, float, int]:
+    """(fibers, fiber_width, seed) of a ``bake`` spec, strictly typed."""
+    if not isinstance(b, dict):
+        raise ValueError(f"bake: expected an object, got {b!r:.80}")
+    unknown = set(b) - {"fibers", "fiber_width", "seed"}
+    if unknown:
+        raise ValueError(f"bake.{sorted(unknown)[0]}: unknown field (allowed: fiber_width, fibers, seed)")
+    out = []
+    for key, default, kind in (("fibers", 24, int), ("fiber_width", 0.04, float), ("seed", 1, int)):
+        v = b.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or (kind is int and not isinstance(v, int)):
+            raise ValueError(f"bake.{key}: expected {'an integer' if kind is int else 'a number'}, got {v!r:.80}")
+        if kind is float and not np.isfinite(v):
+            raise ValueError(f"bake.{key}: must be finite, got {v!r}")
+        out.append(v)
+    if not 0 <= out[2] < 2**63:
+        raise ValueError(f"bake.seed: must be in [0, 2^63), got {out[2] if abs(out[2]) < 10**20 else '(a huge integer)'}")
+    return int(out[0]), float(out[1]), int(out[2])
+
+
+def load_alpha(spec: dict[str, Any], base_dir: str, resolve: Callable[[str], str] | None = None) -> np.ndarray:
+    """The alpha texture an ``alpha`` spec names: ``{"image": file}`` or
+    ``{"bake": {...}}`` (exactly one). ``resolve`` turns the image's name
+    into a path (default: relative to ``base_dir``); the image must be a
+    regular file of at most ``MAX_IMAGE_BYTES`` whose values are finite."""
     from . import _native
 
+    if not isinstance(spec, dict):
+        raise ValueError(f"expected an object, got {spec!r:.80}")
+    unknown = set(spec) - {"image", "bake"}
+    if unknown:
+        raise ValueError(f"{sorted(unknown)[0]}: unknown field (allowed: bake, image)")
+    if len(spec) != 1:
+        raise ValueError("expected {'image': path} or {'bake': {...}}, not both")
     if "image" in spec:
-        path = os.path.join(base_dir, spec["image"])
-        if not os.path.exists(path):
-            raise ValueError(f"image: {path}: file not found")
+        name = spec["image"]
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"image: expected a file name, got {name!r:.80}")
+        path = resolve(name) if resolve is not None else os.path.join(base_dir, name)
+        try:
+            st = os.stat(path)
+        except FileNotFoundError:
+            raise ValueError(f"image: {path}: file not found") from None
+        except OSError as e:
+            raise ValueError(f"image: {path}: cannot read ({e.strerror or e})") from None
+        if not os.path.isfile(path):
+            raise ValueError(f"image: {path}: not a regular file")
+        if st.st_size > MAX_IMAGE_BYTES:
+            raise ValueError(f"image: {path}: larger than the limit of {MAX_IMAGE_BYTES} bytes")
         if path.lower().endswith(".exr"):
             w, h, d = _native.read_exr(path)
-            return d.reshape(h, w, 3).mean(axis=2).astype(np.float32)
-        w, h, d = _native.read_png(path)
-        rgba = d.reshape(h, w, 4)
-        if np.all(rgba[..., 3] == 1):
-            return (rgba[..., :3] @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)).astype(np.float32)
-        return rgba[..., 3].astype(np.float32)
-    if "bake" in spec:
-        b = spec["bake"]
-        if not isinstance(b, dict):
-            raise ValueError("bake: expected an object")
-        unknown = set(b) - {"fibers", "fiber_width", "seed"}
-        if unknown:
-            raise ValueError(f"bake.{sorted(unknown)[0]}: unknown field")
-        return bake_alpha(int(b.get("fibers", 24)), float(b.get("fiber_width", 0.04)), int(b.get("seed", 1)))
-    raise ValueError("expected {'image': path} or {'bake': {...}}")
+            alpha = d.reshape(h, w, 3).mean(axis=2).astype(np.float32)
+        else:
+            w, h, d = _native.read_png(path)
+            rgba = d.reshape(h, w, 4)
+            if np.all(rgba[..., 3] == 1):
+                alpha = (rgba[..., :3] @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)).astype(np.float32)
+            else:
+                alpha = rgba[..., 3].astype(np.float32)
+        bad = ~np.isfinite(alpha)
+        if np.any(bad):
+            y, x = (int(i[0]) for i in np.nonzero(bad))
+            raise ValueError(f"image: {path}: {int(bad.sum())} texel(s) not finite (first at x={x}, y={y})")
+        return alpha
+    return bake_alpha(*_bake_params(spec["bake"]))
 
 
 def card_quads(points: np.ndarray, width: float, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

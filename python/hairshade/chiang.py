@@ -8,8 +8,7 @@ from typing import Any, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from . import _arrays
-from . import _models
+from . import _arrays, _models
 from . import _native
 
 _I0_MODES = ("exact", "mitsuba")
@@ -104,24 +103,27 @@ class ChiangHair(_models.Picklable):
             raise ValueError(f"i0: must be one of {_I0_MODES}, got {i0!r}")
         sa = None
         if sigma_a is not None:
-            arr = np.asarray(sigma_a, dtype=np.float64)
+            raw = np.asarray(sigma_a) if not isinstance(sigma_a, str) else None
+            if raw is None or raw.dtype.kind not in "fiu":
+                raise TypeError(f"sigma_a: expected a number or 3 numbers, got {sigma_a!r:.80}")
+            arr = raw.astype(np.float64)
             if arr.ndim == 0:
                 arr = np.repeat(arr, 3)
             if arr.shape != (3,):
                 raise ValueError(f"sigma_a: expected a scalar or 3 values (RGB), got shape {arr.shape}")
             sa = [float(v) for v in arr]
 
-        def opt(x: float | None) -> float | None:
-            return None if x is None else float(x)
+        def opt(x: float | None, name: str) -> float | None:
+            return None if x is None else _models.scalar(x, name)
 
         self._params: dict[str, Any] = dict(
             sigma_a=sa,
-            eumelanin=opt(eumelanin),
-            pheomelanin=opt(pheomelanin),
-            longitudinal_roughness=float(longitudinal_roughness),
-            azimuthal_roughness=float(azimuthal_roughness),
-            scale_tilt=float(scale_tilt),
-            eta=float(eta),
+            eumelanin=opt(eumelanin, "eumelanin"),
+            pheomelanin=opt(pheomelanin, "pheomelanin"),
+            longitudinal_roughness=_models.scalar(longitudinal_roughness, "longitudinal_roughness"),
+            azimuthal_roughness=_models.scalar(azimuthal_roughness, "azimuthal_roughness"),
+            scale_tilt=_models.scalar(scale_tilt, "scale_tilt"),
+            eta=_models.scalar(eta, "eta"),
             i0=i0,
         )
         self._native = _native.ChiangHair(**self._params)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from typing import Any
 
 import numpy as np
 
@@ -156,33 +157,83 @@ def cmd_tables(args: argparse.Namespace) -> int:
     return 0
 
 
+def _finite(text: str) -> float:
+    """An argparse type: a finite float."""
+    x = float(text)
+    if not np.isfinite(x):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return x
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     import time
 
     from .render import render, write_exr, write_png
     from .scene import Scene
 
-    scene = Scene.load(args.scene)
+    out = args.output or os.path.splitext(os.path.basename(args.scene))[0] + ".exr"
+    ext = os.path.splitext(out)[1].lower()
+    if ext not in (".exr", ".png"):
+        print(f"error: {out}: unknown output format {ext or '(no extension)'!r} (use .exr or .png)", file=sys.stderr)
+        return 2
+    scene = Scene.load(args.scene, allow_outside=args.allow_outside)
     t = time.perf_counter()
     img, stats = render(scene, width=args.width, height=args.height, transparency=args.transparency,
                         layers=args.layers, return_stats=True)
     dt = time.perf_counter() - t
-    out = args.output or os.path.splitext(os.path.basename(args.scene))[0] + ".exr"
-    write_exr(out, img)
+    # The image itself in the format its name asks for; --png adds a preview
+    # next to an EXR (a PNG output is the preview already).
+    (write_exr if ext == ".exr" else lambda p, im: write_png(p, im, exposure=args.exposure))(out, img)
     print(f"{args.scene}: {img.shape[1]}x{img.shape[0]} in {dt * 1000:.0f} ms "
           f"({stats['segments_visible']} visible segments, {stats['fragments']} fragments) -> {out}")
-    if args.png:
+    if args.png and ext == ".exr":
         png = os.path.splitext(out)[0] + ".png"
         write_png(png, img, exposure=args.exposure)
         print(f"preview -> {png}")
     return 0
 
 
-def _flip(img: np.ndarray, ref: np.ndarray) -> float:
-    """Mean HDR-FLIP of ``img`` against ``ref`` (needs flip-evaluator: the
-    commands check for it before they start)."""
+def _contained(fn: Any) -> tuple[Any, str]:
+    """(fn(), "") run in a forked child, so that a library that ends the
+    process (flip-evaluator exits on a degenerate exposure range) ends only
+    the child: then (None, reason). Runs in-process where fork is missing."""
+    if not hasattr(os, "fork"):
+        return fn(), ""
+    import pickle
+
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # child: only computes and writes
+        os.close(r)
+        try:
+            data = pickle.dumps(fn())
+        except BaseException as e:  # noqa: BLE001 - reported to the parent
+            data = pickle.dumps(e)
+        with os.fdopen(w, "wb") as f:
+            f.write(data)
+        os._exit(0)
+    os.close(w)
+    with os.fdopen(r, "rb") as f:
+        data = f.read()
+    _, status = os.waitpid(pid, 0)
+    if not data:
+        return None, f"it ended the process (status {os.waitstatus_to_exitcode(status)})"
+    out = pickle.loads(data)
+    if isinstance(out, BaseException):
+        return None, f"{type(out).__name__}: {out}"
+    return out, ""
+
+
+def _flip(img: np.ndarray, ref: np.ndarray) -> tuple[float, str]:
+    """(mean HDR-FLIP of ``img`` against ``ref``, why it is NaN or "").
+    Needs flip-evaluator (the commands check for it before they start); a
+    black reference, or flip-evaluator ending the process, gives NaN and
+    the reason."""
     flip = _extras.require("flip_evaluator", "FLIP")
-    return float(flip.evaluate(np.maximum(ref, 0), np.maximum(img, 0), "HDR")[1])
+    if not np.max(ref) > 0:
+        return float("nan"), "the reference is black (FLIP's exposure range is undefined)"
+    f, why = _contained(lambda: float(flip.evaluate(np.maximum(ref, 0), np.maximum(img, 0), "HDR")[1]))
+    return float("nan") if f is None else f, why and f"FLIP failed: {why}"
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -194,8 +245,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if a.shape != b.shape:
         print(f"error: {args.image} is {a.shape[1]}x{a.shape[0]}, {args.reference} is {b.shape[1]}x{b.shape[0]}", file=sys.stderr)
         return 2
-    flip = "" if args.no_flip else f"  mean FLIP {_flip(a, b):.4f}"
+    for name, im in ((args.image, a), (args.reference, b)):
+        bad = int(np.sum(~np.isfinite(im).all(axis=2)))
+        if bad:
+            print(f"error: {name}: {bad} pixel(s) not finite (NaN or inf); nothing to compare", file=sys.stderr)
+            return 2
+    f, why = (float("nan"), "") if args.no_flip else _flip(a, b)
+    flip = "" if args.no_flip else f"  mean FLIP {f:.4f}"
     print(f"relMSE {rel_mse(a, b):.4e}{flip}  (mean radiance {a.mean():.4g} vs {b.mean():.4g})")
+    if why:
+        print(f"note: {why}", file=sys.stderr)
     if args.png:
         write_png(args.png, side_by_side(a, b), exposure=args.exposure)
         print(f"side by side [image | reference | error] -> {args.png}")
@@ -227,9 +286,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     write_exr(os.path.join(args.out, "demo_mitsuba.exr"), ref)
     write_png(os.path.join(args.out, "demo_mitsuba.png"), ref, exposure=args.exposure)
     write_png(os.path.join(args.out, "demo_compare.png"), side_by_side(raster, ref), exposure=args.exposure)
-    rel, f = rel_mse(raster, ref), _flip(raster, ref)
+    rel, (f, why) = rel_mse(raster, ref), _flip(raster, ref)
     print(f"Mitsuba {hm.default_variant()} (ChiangHair fitted to the material, path tracing, {args.spp} spp): {t_mi:.1f} s")
     print(f"rasterizer vs Mitsuba: relMSE {rel:.3e}, mean FLIP {f:.4f}; time ratio {t_mi / t_raster:.0f}x")
+    if why:
+        print(f"note: {why}", file=sys.stderr)
     print(f"images in {args.out}/ (demo_raster, demo_mitsuba, demo_compare)")
     return 0
 
@@ -263,9 +324,11 @@ def main(argv: list[str] | None = None) -> int:
     t.set_defaults(func=cmd_tables)
     r = sub.add_parser("render", help="render a scene file with the rasterizer")
     r.add_argument("scene")
-    r.add_argument("-o", "--output", help="output EXR (default: <scene>.exr)")
+    r.add_argument("-o", "--output", help="output image, .exr or .png (default: <scene>.exr)")
     r.add_argument("--png", action="store_true", help="also write an sRGB PNG preview")
-    r.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops")
+    r.add_argument("--exposure", type=_finite, default=0.0, help="PNG exposure in stops")
+    r.add_argument("--allow-outside", action="store_true",
+                   help="let the scene read files outside its folder (default: only files inside it)")
     r.add_argument("--width", type=int)
     r.add_argument("--height", type=int)
     r.add_argument("--transparency", choices=("mlab", "sorted"))
@@ -275,7 +338,7 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("image")
     c.add_argument("reference")
     c.add_argument("--png", help="write a side-by-side PNG [image | reference | error]")
-    c.add_argument("--exposure", type=float, default=0.0)
+    c.add_argument("--exposure", type=_finite, default=0.0)
     c.add_argument("--no-flip", action="store_true", help="relMSE only (FLIP needs hairshade[flip])")
     c.set_defaults(func=cmd_compare)
     dm = sub.add_parser("demo", help="render the demo head with the rasterizer and Mitsuba")
@@ -284,7 +347,7 @@ def main(argv: list[str] | None = None) -> int:
     dm.add_argument("--width", type=int, default=640)
     dm.add_argument("--height", type=int, default=360)
     dm.add_argument("--spp", type=int, default=64)
-    dm.add_argument("--exposure", type=float, default=1.0)
+    dm.add_argument("--exposure", type=_finite, default=1.0)
     dm.set_defaults(func=cmd_demo)
     args = p.parse_args(argv)
     if getattr(args, "n", 1) is not None and getattr(args, "n", 1) < 1:

@@ -23,8 +23,8 @@ class DEonHair(_models.Picklable):
     shift            0.035            [-0.25, 0.25]
     eta              1.55             (1, 3]
     h_samples        None             None: adaptive quadrature converged to
-                                      1e-8 relative (f64); n: UE's stratified
-                                      n-sample estimate
+                                      1e-8 relative (f64); n in [1, 2^20]:
+                                      UE's stratified n-sample estimate
     h_offset         0.5              [0, 1): the stratified samples' offset
     components       R, TT, TRT       any subset
     ================ ================ ======================================
@@ -44,16 +44,17 @@ class DEonHair(_models.Picklable):
     ) -> None:
         comps = _models.components(components, ("R", "TT", "TRT"))
         if h_samples is not None:
-            if isinstance(h_samples, bool) or not isinstance(h_samples, (int, np.integer)) or h_samples < 1:
-                raise ValueError(f"h_samples: must be None or an integer >= 1, got {h_samples!r}")
+            if isinstance(h_samples, bool) or not isinstance(h_samples, (int, np.integer)) \
+                    or not 1 <= h_samples <= 1 << 20:
+                raise ValueError(f"h_samples: must be None or an integer in [1, 1048576], got {h_samples!r:.40}")
         self._params: dict[str, Any] = dict(
             base_color=_models.rgb(base_color, "base_color"),
-            roughness=float(roughness),
-            shift=float(shift),
-            eta=float(eta),
+            roughness=_models.scalar(roughness, "roughness"),
+            shift=_models.scalar(shift, "shift"),
+            eta=_models.scalar(eta, "eta"),
             h_samples=None if h_samples is None else int(h_samples),
             components=tuple(dict.fromkeys(comps)),
-            h_offset=float(h_offset),
+            h_offset=_models.scalar(h_offset, "h_offset"),
         )
         p = self._params
         self._native = _native.DEonHair(

@@ -38,7 +38,11 @@ def read_hair(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarr
     (bad magic, truncated arrays, counts that disagree, non-finite values)."""
     path = os.fspath(path)
     with open(path, "rb") as f:
-        data = f.read()
+        return parse_hair(f.read(), path)
+
+
+def parse_hair(data: bytes, path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`read_hair` of a file's bytes (``path`` names it in errors)."""
     if len(data) < HEADER.itemsize or data[:4] != b"HAIR":
         raise ValueError(f"{path}: not a .hair file (expected the 'HAIR' header)")
     h = np.frombuffer(data, HEADER, count=1)[0]

@@ -63,17 +63,17 @@ class KarisHair(_models.Picklable):
         absorption = "legacy" if legacy_absorption else ("chiang_corrected" if corrected_absorption else "chiang")
         self._params: dict[str, Any] = dict(
             base_color=_models.rgb(base_color, "base_color"),
-            specular=float(specular),
-            roughness=float(roughness),
-            scatter=float(scatter),
-            shift=float(shift),
-            backlit=float(backlit),
-            area=float(area),
+            specular=_models.scalar(specular, "specular"),
+            roughness=_models.scalar(roughness, "roughness"),
+            scatter=_models.scalar(scatter, "scatter"),
+            shift=_models.scalar(shift, "shift"),
+            backlit=_models.scalar(backlit, "backlit"),
+            area=_models.scalar(area, "area"),
             components=tuple(dict.fromkeys(comps)),
-            separable_r=bool(separable_r),
-            legacy_absorption=bool(legacy_absorption),
-            corrected_absorption=bool(corrected_absorption),
-            fast_asin=bool(fast_asin),
+            separable_r=_models.flag(separable_r, "separable_r"),
+            legacy_absorption=_models.flag(legacy_absorption, "legacy_absorption"),
+            corrected_absorption=_models.flag(corrected_absorption, "corrected_absorption"),
+            fast_asin=_models.flag(fast_asin, "fast_asin"),
         )
         p = self._params
         self._native = _native.KarisHair(
@@ -93,7 +93,7 @@ class KarisHair(_models.Picklable):
              opaque_visibility: npt.ArrayLike) -> tuple[np.ndarray, int, bool]:
         (l, v, t), dtype, n, single = _models.triples(L, V, T)
         extras = [
-            _models.per_pair(shadow, "shadow", n, dtype, False),
+            _models.per_pair(shadow, "shadow", n, dtype, False, (0.0, 1.0)),
             _models.per_pair(global_scattering, "global_scattering", n, dtype, True),
             _models.per_pair(local_scattering, "local_scattering", n, dtype, True),
             _models.per_pair(opaque_visibility, "opaque_visibility", n, dtype, False),

@@ -44,14 +44,17 @@ def _grid() -> tuple[np.ndarray, np.ndarray]:
     return L, V
 
 
-def _material(material: KarisHair | DEonHair) -> tuple[np.ndarray, float, float]:
+def _material(material: KarisHair | DEonHair) -> tuple[np.ndarray, float, float, float]:
+    """(base colour, roughness, shift, eta); KarisHair has no eta of its own
+    and takes human hair's 1.55."""
     p = material.params
-    return np.asarray(p["base_color"], dtype=np.float64), float(p["roughness"]), float(p["shift"])
+    eta = float(p.get("eta", 1.55))
+    return np.asarray(p["base_color"], dtype=np.float64), float(p["roughness"]), float(p["shift"]), eta
 
 
 def initial_chiang_params(material: KarisHair | DEonHair) -> dict[str, Any]:
     """The analytic mapping (no fit)."""
-    color, r, shift = _material(material)
+    color, r, shift, eta = _material(material)
     r = min(max(r, 1 / 255), 1.0)
     beta_r = r * r
     f = lambda b: 0.726 * b + 0.812 * b * b + 3.7 * b**20 - beta_r  # noqa: E731
@@ -65,7 +68,7 @@ def initial_chiang_params(material: KarisHair | DEonHair) -> dict[str, Any]:
         longitudinal_roughness=float(np.clip(beta_m, 1e-3, 1.0)),
         azimuthal_roughness=float(np.clip(beta_n, 1e-3, 1.0)),
         scale_tilt=float(-np.rad2deg(shift)),
-        eta=1.55,
+        eta=eta,
     )
 
 
@@ -74,10 +77,10 @@ def chiang_params(material: KarisHair | DEonHair, fit: bool = True, max_nfev: in
     init = initial_chiang_params(material)
     if not fit:
         return init
-    color, r, shift = _material(material)
+    color, r, shift, eta = _material(material)
     L, V = _grid()
     T = np.array([0.0, 1.0, 0.0])
-    target = DEonHair(base_color=color, roughness=r, shift=shift).eval(L, V, T)
+    target = DEonHair(base_color=color, roughness=r, shift=shift, eta=eta).eval(L, V, T)
     scale = np.maximum(target.max(axis=0), 1e-12)
     sa0 = np.array(init["sigma_a"])
 
@@ -87,7 +90,7 @@ def chiang_params(material: KarisHair | DEonHair, fit: bool = True, max_nfev: in
             longitudinal_roughness=x[0],
             azimuthal_roughness=x[1],
             scale_tilt=x[2],
-            eta=1.55,
+            eta=eta,
         )
 
     def residual(x: np.ndarray) -> np.ndarray:
@@ -107,7 +110,7 @@ def chiang_params(material: KarisHair | DEonHair, fit: bool = True, max_nfev: in
         longitudinal_roughness=float(x[0]),
         azimuthal_roughness=float(x[1]),
         scale_tilt=float(x[2]),
-        eta=1.55,
+        eta=eta,
     )
 
 

@@ -140,6 +140,9 @@ def render(
     (KeyboardInterrupt)."""
     cam = dict(scene.camera)
     if width is not None or height is not None:
+        for name, v in (("width", width), ("height", height)):
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 16384):
+                raise ValueError(f"{name}: expected an integer in [1, 16384], got {v!r:.80}")
         w0, h0 = cam["width"], cam["height"]
         w = int(width) if width is not None else max(1, round(int(height) * w0 / h0))
         h = int(height) if height is not None else max(1, round(int(width) * h0 / w0))
@@ -193,9 +196,12 @@ def write_exr(path: str | os.PathLike[str], image: npt.ArrayLike) -> None:
     _native.write_exr(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)))
 
 
-def read_exr(path: str | os.PathLike[str]) -> Image:
-    """Reads the RGB channels of an OpenEXR file -> (H, W, 3) float32."""
-    w, h, data = _native.read_exr(os.fspath(path))
+def read_exr(path: str | os.PathLike[str], max_pixels: int | None = None) -> Image:
+    """Reads the RGB channels of an OpenEXR file -> (H, W, 3) float32.
+    A file declaring more than ``max_pixels`` (default 2^28) pixels, or
+    more than its size can hold, is refused (ValueError) before its pixels
+    are allocated; MemoryError when they cannot be."""
+    w, h, data = _native.read_exr(os.fspath(path), max_pixels)
     return data.reshape(h, w, 3)
 
 
@@ -204,6 +210,9 @@ def write_png(path: str | os.PathLike[str], image: npt.ArrayLike, exposure: floa
     a = np.ascontiguousarray(image, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
         raise ValueError(f"image: expected shape (H, W, 3), got {a.shape}")
+    if isinstance(exposure, bool) or not isinstance(exposure, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(exposure) or abs(exposure) > 100:
+        raise ValueError(f"exposure: expected a finite number of stops in [-100, 100], got {exposure!r}")
     _native.write_png(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)), float(exposure))
 
 

@@ -35,8 +35,7 @@ A scene file::
   :mod:`hairshade.generate`). Radius 0 is allowed and draws nothing.
 - Hair cards: ``cards`` (ribbons with an alpha texture, see
   :mod:`hairshade.cards`) and ``generate_cards`` (cards around a procedural
-  head). A card triangle with a corner behind the camera's near plane is not
-  drawn.
+  head). Card and mesh triangles are clipped at the camera's near plane.
 - ``material.model`` is ``karis`` (KarisHair keyword arguments),
   ``chiang`` (ChiangHair keyword arguments; shaded with its far field) or
   ``deon`` (DEonHair keyword arguments; slow unless ``h_samples`` is set).
@@ -84,8 +83,20 @@ A scene file::
   checked by the renderer itself (``hairshade._native.render_options``), the
   one place they are defined.
 - Every field is checked on load; an error names the file, the field's path
-  (``hair.strands[3].points[5]``) and what is wrong. Non-finite numbers are
-  errors.
+  (``hair.strands[3].points[5]``) and what is wrong. Types are strict: a
+  number is a JSON number (not a string, not a boolean), an integer field
+  (``resolution``, ``hairshade_scene``) takes integers only, and unknown
+  keys are errors. Non-finite numbers, and numbers above ``MAX_MAGNITUDE``
+  (1e18) in magnitude, are errors: the renderer computes in float32
+  (largest 3.4e38) and squares lengths, so larger inputs would overflow to
+  inf and end in a hang or a black image.
+- Referenced files (``hair.file``, ``meshes[i].file``, a card's
+  ``alpha.image``) are resolved relative to the scene file's folder and
+  must lie inside it (after following links), unless the scene is loaded
+  with ``allow_outside=True`` (``hairshade render --allow-outside``).
+  Only regular files are read: text files up to ``MAX_TEXT_BYTES``
+  (256 MiB), images up to ``MAX_IMAGE_BYTES`` (1 GiB). Errors quote a
+  file's content only when it is printable text.
 """
 
 from __future__ import annotations
@@ -93,6 +104,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import stat
 from dataclasses import dataclass, field
 from typing import Any, NoReturn
 
@@ -105,6 +117,13 @@ from .karis import KarisHair
 from .lighting import sh_coefficients
 
 VERSION = 1
+
+#: Largest magnitude of a number in a scene (see the module docs).
+MAX_MAGNITUDE = 1e18
+#: Largest scene, strand or OBJ file read.
+MAX_TEXT_BYTES = 256 << 20
+#: Largest image file read (card alpha textures).
+MAX_IMAGE_BYTES = 1 << 30
 
 
 class SceneError(ValueError):
@@ -144,20 +163,35 @@ class Scene:
         return len(self.offsets) - 1
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "Scene":
+    def load(cls, path: str | os.PathLike, allow_outside: bool = False) -> "Scene":
+        """The scene in the JSON file ``path``. Files it references must lie
+        in its folder unless ``allow_outside`` (see the module docs)."""
         path = os.fspath(path)
+        text = read_text(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{path}: {msg}"))
         try:
-            with open(path) as f:
-                data = json.load(f)
-        except FileNotFoundError:
-            raise SceneError(f"{path}: file not found") from None
+            data = json.loads(text)
         except json.JSONDecodeError as e:
             raise SceneError(f"{path}: not valid JSON ({e})") from None
-        return cls.from_dict(data, base_dir=os.path.dirname(os.path.abspath(path)), source=path)
+        except RecursionError:
+            raise SceneError(f"{path}: not valid JSON (nested too deeply)") from None
+        except ValueError as e:  # an integer beyond Python's digit limit
+            raise SceneError(f"{path}: not valid JSON ({e})") from None
+        return cls.from_dict(data, base_dir=os.path.dirname(os.path.abspath(path)), source=path,
+                             allow_outside=allow_outside)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], base_dir: str | None = None, source: str = "<dict>") -> "Scene":
-        return _parse(d, base_dir or os.getcwd(), source)
+    def from_dict(cls, d: dict[str, Any], base_dir: str | None = None, source: str = "<dict>",
+                  allow_outside: bool = False) -> "Scene":
+        """The scene a dict describes; relative file names are resolved in
+        ``base_dir`` (default: the current folder) and must stay inside it
+        unless ``allow_outside``."""
+        if not isinstance(allow_outside, bool):
+            raise TypeError(f"allow_outside: expected True or False, got {allow_outside!r}")
+        try:
+            return _parse(d, base_dir or os.getcwd(), source, allow_outside=allow_outside)
+        except RecursionError:
+            raise SceneError(f"{source}: nested too deeply") from None
+
 
     @classmethod
     def from_arrays(
@@ -195,16 +229,79 @@ class Scene:
         strands = [(p[o[s]:o[s + 1]], r[o[s]:o[s + 1]]) for s in range(len(o) - 1)]
         return _parse(d, os.getcwd(), "<arrays>", strands)
 
+# -- files -----------------------------------------------------------------------
+
+
+def show(line: str | bytes, limit: int = 80) -> str:
+    """A line of a file for an error message: quoted and shortened when it
+    is printable text, else only a note (file content that is not text is
+    never echoed)."""
+    if isinstance(line, bytes) or any(not (ch.isprintable() or ch == "\t") for ch in line):
+        return "(content that is not text)"
+    return repr(line if len(line) <= limit else line[:limit] + "...")
+
+
+def read_bytes(path: str, limit: int, error: Any) -> bytes:
+    """The content of the regular file ``path`` (at most ``limit`` bytes);
+    ``error(message)`` builds the exception raised otherwise."""
+    try:
+        with open(path, "rb") as f:
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode):
+                raise error("not a regular file")
+            data = f.read(limit + 1)
+    except FileNotFoundError:
+        raise error("file not found") from None
+    except IsADirectoryError:
+        raise error("is a folder, not a file") from None
+    except OSError as e:
+        raise error(f"cannot read ({e.strerror or e})") from None
+    if len(data) > limit:
+        raise error(f"larger than the limit of {limit} bytes")
+    return data
+
+
+def read_text(path: str, limit: int, error: Any) -> str:
+    """:func:`read_bytes` decoded as UTF-8 (an error names the offset of
+    the first byte that is not)."""
+    data = read_bytes(path, limit, error)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise error(f"not UTF-8 text (byte {e.start})") from None
 
 # -- validation helpers --------------------------------------------------------
 
 
 class _Ctx:
-    def __init__(self, source: str):
+    def __init__(self, source: str, base_dir: str = ".", allow_outside: bool = False):
         self.source = source
+        self.base_dir = base_dir
+        self.allow_outside = allow_outside
 
     def fail(self, path: str, msg: str) -> NoReturn:
         raise SceneError(f"{self.source}: {path}: {msg}")
+
+    def file(self, name: Any, path: str) -> str:
+        """The file a scene field names: relative to the scene's folder and
+        inside it (after following links) unless outside files are allowed."""
+        if not isinstance(name, str) or not name:
+            self.fail(path, f"expected a file name, got {name!r:.80}")
+        full = os.path.join(self.base_dir, name)
+        if not self.allow_outside:
+            base = os.path.realpath(self.base_dir)
+            real = os.path.realpath(full)
+            if os.path.commonpath([base, real]) != base:
+                self.fail(path, f"{name}: outside the scene's folder {base} "
+                                "(load with allow_outside=True, or --allow-outside, to read it)")
+        return full
+
+    def integer(self, v: Any, path: str, lo: int, hi: int) -> int:
+        if isinstance(v, bool) or not isinstance(v, int):
+            self.fail(path, f"expected an integer, got {v!r:.80}")
+        if not lo <= v <= hi:
+            self.fail(path, f"must be an integer in [{lo}, {hi}], got {v if abs(v) < 10**20 else '(a huge integer)'}")
+        return v
 
     def obj(self, v: Any, path: str) -> dict[str, Any]:
         if not isinstance(v, dict):
@@ -218,10 +315,15 @@ class _Ctx:
 
     def num(self, v: Any, path: str, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False) -> float:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            self.fail(path, f"expected a number, got {v!r}")
-        x = float(v)
+            self.fail(path, f"expected a number, got {v!r:.80}")
+        try:
+            x = float(v)
+        except OverflowError:
+            self.fail(path, f"must be at most {MAX_MAGNITUDE:g} in magnitude, got an integer of {len(str(abs(v)))} digits")
         if not math.isfinite(x):
             self.fail(path, f"must be finite, got {v!r}")
+        if abs(x) > MAX_MAGNITUDE:
+            self.fail(path, f"must be at most {MAX_MAGNITUDE:g} in magnitude (the renderer computes in float32), got {x:g}")
         if x < lo or x > hi or (lo_open and x == lo):
             lo_s = "(" if lo_open else "["
             self.fail(path, f"must be in {lo_s}{lo}, {hi}], got {x}")
@@ -229,7 +331,7 @@ class _Ctx:
 
     def vec3(self, v: Any, path: str, lo: float = -math.inf, hi: float = math.inf) -> list[float]:
         if not isinstance(v, (list, tuple)) or len(v) != 3:
-            self.fail(path, f"expected 3 numbers, got {v!r}")
+            self.fail(path, f"expected 3 numbers, got {v!r:.80}")
         return [self.num(x, f"{path}[{i}]", lo, hi) for i, x in enumerate(v)]
 
     def boolean(self, v: Any, path: str) -> bool:
@@ -267,22 +369,24 @@ def _strand_arrays(points: npt.ArrayLike, radii: npt.ArrayLike, offsets: npt.Arr
 
 
 def _parse(d: Any, base_dir: str, source: str,
-           strands: list[tuple[np.ndarray, np.ndarray]] | None = None) -> Scene:
+           strands: list[tuple[np.ndarray, np.ndarray]] | None = None, allow_outside: bool = False) -> Scene:
     """The validated scene of the dict ``d``; ``strands``: (points, radii)
-    of further strands, already checked (Scene.from_arrays)."""
-    c = _Ctx(source)
+    of further strands, already checked (Scene.from_arrays); files it names
+    must lie in ``base_dir`` unless ``allow_outside``."""
+    c = _Ctx(source, base_dir, allow_outside)
     d = c.obj(d, "(top level)")
     c.known(d, "", {"hairshade_scene", "camera", "lights", "hair", "meshes", "render"})
-    if d.get("hairshade_scene") != VERSION:
-        c.fail("hairshade_scene", f"expected version {VERSION}, got {d.get('hairshade_scene')!r}")
+    version = d.get("hairshade_scene")
+    if type(version) is not int or version != VERSION:
+        c.fail("hairshade_scene", f"expected version {VERSION}, got {version!r:.80}")
 
     cam = c.obj(d.get("camera"), "camera")
     c.known(cam, "camera", {"position", "target", "up", "fov", "resolution"})
     res = cam.get("resolution", [640, 360])
     if not isinstance(res, (list, tuple)) or len(res) != 2:
         c.fail("camera.resolution", f"expected [width, height], got {res!r}")
-    width = int(c.num(res[0], "camera.resolution[0]", 1, 16384))
-    height = int(c.num(res[1], "camera.resolution[1]", 1, 16384))
+    width = c.integer(res[0], "camera.resolution[0]", 1, 16384)
+    height = c.integer(res[1], "camera.resolution[1]", 1, 16384)
     camera = dict(
         position=c.vec3(cam.get("position"), "camera.position"),
         target=c.vec3(cam.get("target"), "camera.target"),
@@ -337,10 +441,15 @@ def _parse(d: Any, base_dir: str, source: str,
     c.known(hair, "hair", {"strands", "file", "generate", "cards", "generate_cards", "material"})
     pts: list[np.ndarray] = []
     rads: list[np.ndarray] = []
-    for i, s in enumerate(hair.get("strands", [])):
+    raw_strands = hair.get("strands", [])
+    if not isinstance(raw_strands, list):
+        c.fail("hair.strands", "expected a list")
+    for i, s in enumerate(raw_strands):
         p = f"hair.strands[{i}]"
         s = c.obj(s, p)
         c.known(s, p, {"points", "radius", "radii"})
+        if "radius" in s and "radii" in s:
+            c.fail(p, "give radius or radii, not both")
         raw = s.get("points")
         if not isinstance(raw, list) or len(raw) < 2:
             c.fail(f"{p}.points", "expected a list of at least 2 points")
@@ -355,17 +464,15 @@ def _parse(d: Any, base_dir: str, source: str,
         pts.append(v)
         rads.append(r)
     if "file" in hair:
-        f = hair["file"]
-        if not isinstance(f, str):
-            c.fail("hair.file", f"expected a path, got {f!r}")
-        fpts, frads = _read_hair_file(os.path.join(base_dir, f), c)
+        fpts, frads = _read_hair_file(c.file(hair["file"], "hair.file"), c)
         pts += fpts
         rads += frads
     if "generate" in hair:
         from .generate import generate
 
+        spec = c.obj(hair["generate"], "hair.generate")
         try:
-            gp, gr = generate(c.obj(hair["generate"], "hair.generate"))
+            gp, gr = generate(spec)
         except (TypeError, ValueError) as e:
             c.fail("hair.generate", str(e))
         pts += gp
@@ -396,10 +503,7 @@ def _parse(d: Any, base_dir: str, source: str,
         m = c.obj(m, p)
         if m.get("type") == "obj":
             c.known(m, p, {"type", "file", "albedo"})
-            f = m.get("file")
-            if not isinstance(f, str):
-                c.fail(f"{p}.file", f"expected a path, got {f!r}")
-            path = os.path.join(base_dir, f)
+            path = c.file(m.get("file"), f"{p}.file")
             tris = _read_obj(path, c, f"{p}.file")
             obj_meshes.append(dict(file=path, albedo=c.vec3(m.get("albedo", [0.5, 0.5, 0.5]), f"{p}.albedo", 0, 1), triangles=tris))
             continue
@@ -425,11 +529,7 @@ def _parse(d: Any, base_dir: str, source: str,
 def _read_obj(path: str, c: _Ctx, field_path: str) -> np.ndarray:
     """Triangles (T, 3, 3) of an OBJ file's `v` and `f` lines (polygons fan-
     triangulated; texture/normal indices and everything else ignored)."""
-    try:
-        with open(path) as f:
-            lines = f.read().splitlines()
-    except FileNotFoundError:
-        c.fail(field_path, f"{path}: file not found")
+    lines = read_text(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{c.source}: {field_path}: {path}: {msg}")).splitlines()
     verts: list[list[float]] = []
     tris: list[list[int]] = []
     for n, line in enumerate(lines, 1):
@@ -441,17 +541,17 @@ def _read_obj(path: str, c: _Ctx, field_path: str) -> np.ndarray:
                 v = [float(x) for x in parts[1:4]]
             except ValueError:
                 v = []
-            if len(v) != 3 or not all(math.isfinite(x) for x in v):
-                c.fail(field_path, f"{path}:{n}: expected 'v x y z' with finite numbers, got {line!r}")
+            if len(v) != 3 or not all(math.isfinite(x) and abs(x) <= MAX_MAGNITUDE for x in v):
+                c.fail(field_path, f"{path}:{n}: expected 'v x y z' with finite numbers, got {show(line)}")
             verts.append(v)
         elif parts[0] == "f":
             try:
                 idx = [int(x.split("/")[0]) for x in parts[1:]]
             except ValueError:
-                c.fail(field_path, f"{path}:{n}: bad face {line!r}")
+                c.fail(field_path, f"{path}:{n}: bad face {show(line)}")
             idx = [i - 1 if i > 0 else len(verts) + i for i in idx]
             if len(idx) < 3 or any(i < 0 or i >= len(verts) for i in idx):
-                c.fail(field_path, f"{path}:{n}: face indices out of range in {line!r}")
+                c.fail(field_path, f"{path}:{n}: face indices out of range in {show(line)}")
             tris += [[idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1)]
     if not tris:
         c.fail(field_path, f"{path}: no faces")
@@ -467,8 +567,9 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         c.fail("hair.cards", "expected a list")
     entries = [(f"hair.cards[{i}]", x) for i, x in enumerate(raw)]
     if "generate_cards" in hair:
+        spec = c.obj(hair["generate_cards"], "hair.generate_cards")
         try:
-            gen = head_cards(c.obj(hair["generate_cards"], "hair.generate_cards"))
+            gen = head_cards(spec)
         except (TypeError, ValueError) as e:
             c.fail("hair.generate_cards", str(e))
         entries += [(f"hair.generate_cards (card {i})", x) for i, x in enumerate(gen)]
@@ -495,7 +596,9 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         key = json.dumps(alpha_spec, sort_keys=True)
         if key not in tex_keys:
             try:
-                textures.append(load_alpha(alpha_spec, base_dir))
+                textures.append(load_alpha(alpha_spec, base_dir, lambda name: c.file(name, f"{path}.alpha.image")))
+            except SceneError:
+                raise
             except (TypeError, ValueError, OSError) as e:
                 c.fail(f"{path}.alpha", str(e))
             tex_keys[key] = len(textures) - 1
@@ -506,7 +609,7 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         corners.append(q)
         uvs.append(uv)
         tangents.append(t)
-        if "bake" in alpha_spec:
+        if "bake" in alpha_spec:  # checked by load_alpha above
             fp, fr = card_fiber_strands(pts, width, normal / np.linalg.norm(normal), alpha_spec["bake"])
             fiber_pts += fp
             fiber_rads += fr
@@ -529,12 +632,12 @@ def _read_hair_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarr
     (binary, :mod:`hairshade.hairfile`) or the text format."""
     if not path.lower().endswith(".hair"):
         return _read_strand_file(path, c)
-    from .hairfile import read_hair
+    from .hairfile import parse_hair
 
+    # A regular file within the size limit, as every file a scene names.
+    data = read_bytes(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{c.source}: hair.file: {path}: {msg}"))
     try:
-        p, r, o = read_hair(path)
-    except FileNotFoundError:
-        c.fail("hair.file", f"{path}: file not found")
+        p, r, o = parse_hair(data, path)
     except ValueError as e:
         c.fail("hair.file", str(e))
     return np.split(p.astype(np.float64), o[1:-1]), np.split(r.astype(np.float64), o[1:-1])
@@ -542,11 +645,7 @@ def _read_hair_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarr
 
 def _read_strand_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """`x y z r` per line, blank lines between strands, `#` comments."""
-    try:
-        with open(path) as f:
-            lines = f.read().splitlines()
-    except FileNotFoundError:
-        c.fail("hair.file", f"{path}: file not found")
+    lines = read_text(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{c.source}: hair.file: {path}: {msg}")).splitlines()
     pts: list[np.ndarray] = []
     rads: list[np.ndarray] = []
     cur: list[list[float]] = []
@@ -569,9 +668,10 @@ def _read_strand_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.nda
         try:
             vals = [float(x) for x in parts]
         except ValueError:
-            c.fail("hair.file", f"{path}:{n}: expected 4 numbers 'x y z r', got {line!r}")
-        if len(vals) != 4 or not all(math.isfinite(v) for v in vals) or vals[3] < 0:
-            c.fail("hair.file", f"{path}:{n}: expected 4 finite numbers 'x y z r' with r >= 0, got {line!r}")
+            c.fail("hair.file", f"{path}:{n}: expected 4 numbers 'x y z r', got {show(line)}")
+        if len(vals) != 4 or not all(math.isfinite(v) and abs(v) <= MAX_MAGNITUDE for v in vals) or vals[3] < 0:
+            c.fail("hair.file", f"{path}:{n}: expected 4 finite numbers 'x y z r' (at most {MAX_MAGNITUDE:g} "
+                                f"in magnitude) with r >= 0, got {show(line)}")
         cur.append(vals)
     flush(len(lines))
     return pts, rads

@@ -8,11 +8,11 @@
 use crate::batch::Precision;
 use crate::fiber::ParamError;
 use numpy::{Element, PyArray1, PyReadonlyArray1};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
 /// The float types the bindings compute in.
-pub trait Float: Precision + Element {}
+pub trait Float: Precision + Element + Default {}
 impl Float for f32 {}
 impl Float for f64 {}
 
@@ -121,18 +121,99 @@ pub fn entries<T>(arrays: &[(&[T], usize, &str)]) -> PyResult<usize> {
     Ok(n)
 }
 
-/// `width · n` outputs of `f`, computed with the GIL released.
+/// `len` zeros, or a `MemoryError` naming `what` and the bytes asked for.
+pub fn zeroed<T: Clone + Default>(len: usize, what: &str) -> PyResult<Vec<T>> {
+    crate::alloc::try_zeroed(len, what).map_err(|e| PyMemoryError::new_err(e.to_string()))
+}
+
+/// Runs `work` on a worker thread while this one, with the GIL, calls
+/// `poll` every 50 ms and once the work is done. When `poll` fails,
+/// `stop()` asks the work to end early; the guard it returns is held
+/// until the worker has finished, and the error is returned.
+pub fn run_polling<R: Send, G>(
+    py: Python<'_>,
+    work: impl FnOnce() -> R + Send,
+    mut poll: impl FnMut() -> PyResult<()>,
+    stop: impl FnOnce() -> G,
+) -> PyResult<R> {
+    std::thread::scope(|s| {
+        // The worker signals its end on a channel, so the wait returns as
+        // soon as the work is done.
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let rx = std::sync::Mutex::new(rx);
+        let handle = s.spawn(move || {
+            let r = work();
+            drop(tx);
+            r
+        });
+        loop {
+            let finished = without_gil(py, || {
+                let rx = rx.lock().unwrap_or_else(|e| e.into_inner());
+                matches!(
+                    rx.recv_timeout(std::time::Duration::from_millis(50)),
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) | Ok(())
+                )
+            });
+            if let Err(e) = poll() {
+                let guard = stop();
+                let _ = without_gil(py, || handle.join());
+                drop(guard);
+                return Err(e);
+            }
+            if finished {
+                break;
+            }
+        }
+        handle
+            .join()
+            .map_err(|_| PyRuntimeError::new_err("the computation panicked"))
+    })
+}
+
+/// Values below which a batch runs on the calling thread: a batch this
+/// small takes well under the 50 ms a Ctrl-C may wait anyway.
+const INTERRUPTIBLE_FROM: usize = 1 << 16;
+
+/// Runs `f` (a batch of `len` values) with the GIL released; for large
+/// batches on a worker thread while this one checks for Ctrl-C every
+/// 50 ms ([`run_polling`]). On Ctrl-C the batch loops stop at their next
+/// chunk ([`crate::batch::StopBatches`]) and the signal's exception
+/// (normally `KeyboardInterrupt`) is raised; a batch cut short by a stop
+/// another thread asked for raises `KeyboardInterrupt` too, never returns
+/// partial output.
+pub fn interruptible<R: Send>(
+    py: Python<'_>,
+    len: usize,
+    f: impl FnOnce() -> R + Send,
+) -> PyResult<R> {
+    let epoch = crate::batch::stop_epoch();
+    let r = if len < INTERRUPTIBLE_FROM {
+        without_gil(py, f)
+    } else {
+        run_polling(py, f, || py.check_signals(), crate::batch::StopBatches::new)?
+    };
+    if !crate::batch::ran_whole(epoch) {
+        return Err(PyKeyboardInterrupt::new_err(
+            "batch stopped by an interrupt before it finished",
+        ));
+    }
+    Ok(r)
+}
+
+/// `len` outputs of `f`, computed with the GIL released and Ctrl-C
+/// honoured ([`interruptible`]); `MemoryError` when the output cannot be
+/// allocated.
 pub fn compute<'py, T: Float>(
     py: Python<'py>,
     len: usize,
     f: impl FnOnce(&mut [T]) + Send,
-) -> Bound<'py, PyAny> {
-    let out = without_gil(py, || {
-        let mut out = vec![T::ZERO; len];
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut out = zeroed::<T>(len, &format!("output array of {len} values"))?;
+    let out = interruptible(py, len, move || {
         f(&mut out);
         out
-    });
-    to_numpy(py, out)
+    })?;
+    Ok(to_numpy(py, out))
 }
 
 /// The value named `name` among `options` (`(name, value)` pairs), or a

@@ -1,8 +1,9 @@
 //! Images in and out: EXR and PNG files as flat float32 arrays.
 
 use super::convert::{slice, to_numpy, without_gil};
+use crate::image_io::{ImageError, ImageErrorKind, DEFAULT_MAX_PIXELS};
 use numpy::PyReadonlyArray1;
-use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -25,20 +26,27 @@ impl RgbImage<'_> {
     }
 }
 
-fn os_error(e: crate::image_io::ImageError) -> PyErr {
-    PyOSError::new_err(e.0)
+/// An image error as Python sees it: `MemoryError` when the pixels could
+/// not be allocated, `ValueError` for a corrupt or oversized file,
+/// `OSError` for the file system.
+pub fn image_error(e: ImageError) -> PyErr {
+    match e.1 {
+        ImageErrorKind::Memory => PyMemoryError::new_err(e.0),
+        ImageErrorKind::Format | ImageErrorKind::TooLarge => PyValueError::new_err(e.0),
+        ImageErrorKind::Io => PyOSError::new_err(e.0),
+    }
 }
 
 /// Writes a float RGB EXR.
 #[pyfunction]
 pub fn write_exr(py: Python<'_>, path: PathBuf, image: RgbImage<'_>) -> PyResult<()> {
     let (w, h, d) = image.checked()?;
-    without_gil(py, || crate::image_io::write_exr(&path, w, h, d)).map_err(os_error)
+    without_gil(py, || crate::image_io::write_exr(&path, w, h, d)).map_err(image_error)
 }
 
 /// `(width, height, flat float32 array)` from an image reader, run with
 /// the GIL released.
-type Reader = fn(&std::path::Path) -> Result<(usize, usize, Vec<f32>), crate::image_io::ImageError>;
+type Reader = fn(&std::path::Path, usize) -> Result<(usize, usize, Vec<f32>), ImageError>;
 
 /// `(width, height, flat float32 array)`.
 type Image<'py> = PyResult<(usize, usize, Bound<'py, PyAny>)>;
@@ -46,22 +54,34 @@ type Image<'py> = PyResult<(usize, usize, Bound<'py, PyAny>)>;
 fn read_with(
     py: Python<'_>,
     path: PathBuf,
+    max_pixels: Option<usize>,
     read: Reader,
 ) -> PyResult<(usize, usize, Bound<'_, PyAny>)> {
-    let (w, h, d) = without_gil(py, || read(&path)).map_err(os_error)?;
+    let max = max_pixels.unwrap_or(DEFAULT_MAX_PIXELS);
+    let (w, h, d) = without_gil(py, || read(&path, max)).map_err(image_error)?;
     Ok((w, h, to_numpy(py, d)))
 }
 
 /// Reads an EXR's RGB channels: (width, height, flat float32 array).
+/// Images over `max_pixels` (default 2^28) are refused before reading.
 #[pyfunction]
-pub fn read_exr(py: Python<'_>, path: PathBuf) -> Image<'_> {
-    read_with(py, path, crate::image_io::read_exr)
+#[pyo3(signature = (path, max_pixels=None))]
+pub fn read_exr(py: Python<'_>, path: PathBuf, max_pixels: Option<usize>) -> Image<'_> {
+    read_with(py, path, max_pixels, crate::image_io::read_exr)
 }
 
 /// Reads a PNG: (width, height, flat RGBA float32 array in [0, 1]).
+/// Images over `max_pixels` (default 2^28) are refused before reading.
 #[pyfunction]
-pub fn read_png(py: Python<'_>, path: PathBuf) -> Image<'_> {
-    read_with(py, path, crate::image_io::read_png)
+#[pyo3(signature = (path, max_pixels=None))]
+pub fn read_png(py: Python<'_>, path: PathBuf, max_pixels: Option<usize>) -> Image<'_> {
+    read_with(py, path, max_pixels, crate::image_io::read_png)
+}
+
+/// The default pixel limit of the image readers.
+#[pyfunction]
+pub fn default_max_pixels() -> usize {
+    DEFAULT_MAX_PIXELS
 }
 
 /// Writes an sRGB PNG preview of a linear image scaled by 2^exposure.
@@ -73,5 +93,5 @@ pub fn write_png(
     exposure: f32,
 ) -> PyResult<()> {
     let (w, h, d) = image.checked()?;
-    without_gil(py, || crate::image_io::write_png(&path, w, h, d, exposure)).map_err(os_error)
+    without_gil(py, || crate::image_io::write_png(&path, w, h, d, exposure)).map_err(image_error)
 }

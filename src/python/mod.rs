@@ -33,6 +33,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(io::read_exr, m)?,
         wrap_pyfunction!(io::write_png, m)?,
         wrap_pyfunction!(io::read_png, m)?,
+        wrap_pyfunction!(io::default_max_pixels, m)?,
         wrap_pyfunction!(special::lobe, m)?,
         wrap_pyfunction!(special::i0e, m)?,
         wrap_pyfunction!(special::log_i0, m)?,

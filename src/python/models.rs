@@ -4,8 +4,8 @@
 //! `python/hairshade/{chiang,karis,deon}.py`.
 
 use super::convert::{
-    by_name, compute, entries, pairs, to_numpy, value_error, with_floats, without_gil, Float,
-    Floats,
+    by_name, compute, entries, interruptible, pairs, to_numpy, value_error, with_floats,
+    without_gil, zeroed, Float, Floats,
 };
 use crate::batch::{
     chiang_eval, deon_eval, dir_at, karis_eval, karis_eval_env, map_pairs_rgb, map_pairs_scalar,
@@ -75,7 +75,7 @@ impl PyChiangHair {
     ) -> Out<'py> {
         with_floats!(self.m, (wi, wo) => {
             let n = pairs(wi, wo)?;
-            Ok(match op {
+            match op {
                 ChiangOp::Eval => compute(py, 3 * n, |o| chiang_eval(m, wi, wo, o)),
                 ChiangOp::EvalFar(None) => compute(py, 3 * n, |o| map_pairs_rgb(wi, wo, o, |a, b| m.eval_far(a, b))),
                 ChiangOp::EvalFar(Some(t)) => compute(py, 3 * n, |o| {
@@ -94,7 +94,7 @@ impl PyChiangHair {
                     })
                 }),
                 ChiangOp::Pdf => compute(py, n, |o| map_pairs_scalar(wi, wo, o, |a, b| m.pdf(a, b))),
-            })
+            }
         })
     }
 }
@@ -296,12 +296,16 @@ impl PyChiangHair {
                     u2.len() / 2
                 )));
             }
-            let (wo, weight, pdf) = without_gil(py, || {
-                let (mut wo, mut weight, mut pdf) = (vec![0.0; 3 * n], vec![0.0; 3 * n], vec![0.0; n]);
+            let (mut wo, mut weight, mut pdf) = (
+                zeroed(3 * n, "sample: wo")?,
+                zeroed(3 * n, "sample: weight")?,
+                zeroed(n, "sample: pdf")?,
+            );
+            let (wo, weight, pdf) = interruptible(py, 7 * n, move || {
                 let out = SampleOut { wo: &mut wo, weight: &mut weight, pdf: &mut pdf };
                 sample_batch(wi, u1, u2, out, |a, x, y| m.sample(a, x, y));
                 (wo, weight, pdf)
-            });
+            })?;
             Ok((to_numpy(py, wo), to_numpy(py, weight), to_numpy(py, pdf)))
         })
     }
@@ -420,11 +424,11 @@ impl PyKarisHair {
                 (opaque_visibility, 1, "opaque_visibility"),
             ])?;
             let inp = KarisInputs { l, v, t, shadow, global_scattering, local_scattering, opaque_visibility };
-            Ok(if lobes {
+            if lobes {
                 compute(py, 12 * n, |o| karis_eval::<_, true>(m, &inp, o))
             } else {
                 compute(py, 3 * n, |o| karis_eval::<_, false>(m, &inp, o))
-            })
+            }
         })
     }
 
@@ -446,7 +450,7 @@ impl PyKarisHair {
                 )));
             }
             let coeffs = std::array::from_fn(|k| [sh[3 * k], sh[3 * k + 1], sh[3 * k + 2]]);
-            Ok(compute(py, 3 * n, |o| karis_eval_env(m, v, t, &coeffs, o)))
+            compute(py, 3 * n, |o| karis_eval_env(m, v, t, &coeffs, o))
         })
     }
 }
@@ -493,7 +497,7 @@ impl PyDEonHair {
         with_floats!(self.m, (l, v, t) => {
             let n = entries(&[(l, 3, "L"), (v, 3, "V"), (t, 3, "T")])?;
             let w = if lobes { 9 } else { 3 };
-            Ok(compute(py, w * n, |o| deon_eval(m, l, v, t, lobes, o)))
+            compute(py, w * n, |o| deon_eval(m, l, v, t, lobes, o))
         })
     }
 }

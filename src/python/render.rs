@@ -4,7 +4,7 @@
 //! place the ranges are checked; scene files are checked through
 //! [`render_options`] when they load).
 
-use super::convert::{slice, to_numpy, without_gil};
+use super::convert::{run_polling, slice, to_numpy, without_gil};
 use super::models::{PyChiangHair, PyDEonHair, PyKarisHair};
 use crate::raster::scene::{
     AlphaTexture, Camera, Cards, Environment, HairShading, Light, MultipleScattering, OpaqueTri,
@@ -13,7 +13,7 @@ use crate::raster::scene::{
 use crate::raster::shadow::ShadowModel;
 use glam::Vec3;
 use numpy::PyReadonlyArray1;
-use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -563,50 +563,53 @@ pub fn render<'py>(
         }
         _ => {}
     }
+    let memory = crate::raster::memory::estimate(&scene, &opts, ms);
+    if let Some(available) = crate::raster::memory::available_bytes() {
+        if memory.total() > available {
+            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+            let items: Vec<String> = memory
+                .items
+                .iter()
+                .filter(|i| i.1 > 0)
+                .map(|(what, b)| format!("{what} {:.2} GiB", gib(*b)))
+                .collect();
+            return Err(PyMemoryError::new_err(format!(
+                "render: needs about {:.2} GiB ({}), more than the {:.2} GiB available; \
+                 lower the resolution, shadow_map_size or density_resolution",
+                gib(memory.total()),
+                items.join(", "),
+                gib(available)
+            )));
+        }
+    }
+    // The estimate reserved at once and released: address space the system
+    // will not give (an RLIMIT_AS cap, overcommit refused) is a MemoryError
+    // here rather than an abort part-way through the render.
+    if Vec::<u8>::new()
+        .try_reserve_exact(memory.total() as usize)
+        .is_err()
+    {
+        return Err(PyMemoryError::new_err(format!(
+            "render: cannot reserve the {} bytes it needs (largest part: {} {} bytes)",
+            memory.total(),
+            memory.largest().0,
+            memory.largest().1
+        )));
+    }
     let total = crate::raster::tile_count(&scene);
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
-    let result = std::thread::scope(|s| -> PyResult<_> {
-        // The worker signals its end on a channel, so the wait returns as
-        // soon as the image is done (and every 50 ms for progress and Ctrl-C).
-        let (tx, rx) = std::sync::mpsc::channel::<()>();
-        let rx = std::sync::Mutex::new(rx);
-        let handle = s.spawn(|| {
-            let r = crate::raster::render_with_progress(&scene, &opts, &done, &cancel);
-            drop(tx);
-            r
-        });
-        let stop = |e: PyErr| {
-            cancel.store(true, Ordering::Relaxed);
-            Err(e)
-        };
-        loop {
-            let finished = without_gil(py, || {
-                let rx = rx.lock().unwrap_or_else(|e| e.into_inner());
-                matches!(
-                    rx.recv_timeout(std::time::Duration::from_millis(50)),
-                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) | Ok(())
-                )
-            });
-            if let Err(e) = py.check_signals() {
-                let r = stop(e);
-                let _ = handle.join();
-                return r;
-            }
+    let result = run_polling(
+        py,
+        || crate::raster::render_with_progress(&scene, &opts, &done, &cancel),
+        || {
+            py.check_signals()?;
             if let Some(cb) = &progress {
-                if let Err(e) = cb.call1((done.load(Ordering::Relaxed), total)) {
-                    let r = stop(e);
-                    let _ = handle.join();
-                    return r;
-                }
+                cb.call1((done.load(Ordering::Relaxed), total))?;
             }
-            if finished {
-                break;
-            }
-        }
-        handle
-            .join()
-            .map_err(|_| PyRuntimeError::new_err("render: the renderer panicked"))
-    })?;
+            Ok(())
+        },
+        || cancel.store(true, Ordering::Relaxed),
+    )?;
     let (image, stats) = result.ok_or_else(|| PyKeyboardInterrupt::new_err("render cancelled"))?;
     let d = PyDict::new(py);
     d.set_item("segments", stats.segments)?;
@@ -624,5 +627,6 @@ pub fn render<'py>(
     d.set_item("setup_ms", stats.setup_ms)?;
     d.set_item("tiles_ms", stats.tiles_ms)?;
     d.set_item("total_ms", stats.total_ms)?;
+    d.set_item("memory_estimate", memory.total())?;
     Ok((to_numpy(py, image.data), d))
 }

@@ -34,6 +34,7 @@ pub mod coverage;
 pub mod cull;
 pub mod density;
 pub mod env_light;
+pub mod memory;
 pub mod oit;
 pub mod samples;
 pub mod scene;
@@ -122,10 +123,7 @@ pub fn render_with_progress(
 
     // 1. Bounds, view, world-space segments.
     let bounds = setup::scene_bounds(scene);
-    let view = View::new(
-        &scene.camera,
-        (bounds.center - scene.camera.position).length() + bounds.radius,
-    );
+    let view = View::new(&scene.camera, setup::near_reference(scene, bounds));
     let world = setup::world_segments(&scene.strands);
 
     // 2. Shadow maps.
@@ -165,6 +163,7 @@ pub fn render_with_progress(
         });
         let colors = shade::shade_vertices(scene, &shader, view.eye, used.as_deref());
         setup::color_segments(&mut segs, &colors);
+        shade_clipped_ends(&mut segs, &shader, view.eye);
     }
 
     // 4. Cards and meshes; binning.
@@ -288,6 +287,31 @@ fn fiber_counts(scene: &Scene, opts: &RenderOptions) -> Vec<Option<density::Fibe
         .iter()
         .map(|l| wanted(l).then(|| grid.fiber_count(l)))
         .collect()
+}
+
+/// Per-vertex shading of segments clipped at the near plane: a clipped end
+/// is shaded where it lies, not interpolated towards the vertex beyond it
+/// (behind the camera, so seen from the wrong side).
+fn shade_clipped_ends(segs: &mut [setup::Segment], shader: &Shader<'_>, eye: glam::Vec3) {
+    for s in segs.iter_mut().filter(|s| s.ta > 0.0 || s.tb < 1.0) {
+        let t = (s.pb - s.pa).normalize_or_zero();
+        // World segment index: strand vertices minus one per earlier strand.
+        let segment = s.i - s.strand;
+        let shade_at = |p: glam::Vec3, radius: f32| {
+            let fiber = shade::Fiber {
+                radius,
+                strand: s.strand,
+                segment,
+            };
+            shader.shade(p, t, (eye - p).normalize_or_zero(), fiber)
+        };
+        let (ca, cb) = (
+            (s.ta > 0.0).then(|| shade_at(s.pa, s.ra)),
+            (s.tb < 1.0).then(|| shade_at(s.pb, s.rb)),
+        );
+        s.ca = ca.unwrap_or(s.ca);
+        s.cb = cb.unwrap_or(s.cb);
+    }
 }
 
 /// Which strand vertices the segments use (for per-vertex shading).

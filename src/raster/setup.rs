@@ -101,6 +101,36 @@ pub fn scene_bounds(scene: &Scene) -> Bounds {
     }
 }
 
+/// The distance the near plane is a small fraction of ([`View::new`]):
+/// the far side of the hair (strands and cards) as seen from the camera,
+/// so a large floor or ground sphere does not push the near plane past
+/// nearby hair; without hair, the nearer of the camera's target and the
+/// far side of the scene (`bounds`).
+pub fn near_reference(scene: &Scene, bounds: Bounds) -> f32 {
+    let eye = scene.camera.position;
+    let st = &scene.strands;
+    let hair = st
+        .points
+        .iter()
+        .zip(&st.radii)
+        .map(|(p, r)| (*p - eye).length() + r)
+        .chain(scene.cards.corners.iter().map(|p| (*p - eye).length()))
+        .filter(|d| d.is_finite())
+        .fold(None, |m: Option<f32>, d| Some(m.map_or(d, |m| m.max(d))));
+    match hair {
+        Some(d) if d > 0.0 => d,
+        _ => {
+            let far = (bounds.center - eye).length() + bounds.radius;
+            let target = (scene.camera.target - eye).length();
+            if target > 0.0 && target.is_finite() {
+                far.min(target)
+            } else {
+                far
+            }
+        }
+    }
+}
+
 /// Every strand segment in world space (for shadow maps: unclipped).
 pub fn world_segments(st: &Strands) -> Vec<WorldSegment> {
     let mut out = Vec::new();
@@ -216,57 +246,112 @@ pub struct SolidTri {
     pub albedo: Vec3,
 }
 
-/// Opaque mesh triangles, projected, without those back-face culling
-/// skips (`cull[mesh]`, see [`super::cull::meshes_to_cull`]); a triangle
-/// with a corner behind the near plane is dropped (meshes are not
-/// clipped). Returns the triangles and the number culled.
+/// The part of a triangle (view-space corners `v`) in front of the near
+/// plane, as a fan of triangles whose corners are barycentric weights of
+/// the original corners (none when it lies wholly behind, or a corner is
+/// not finite; the triangle itself when wholly in front).
+fn clip_near(v: [Vec3; 3], near: f32) -> Vec<[[f32; 3]; 3]> {
+    const CORNER: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    if !v.iter().all(|x| x.is_finite()) {
+        return Vec::new();
+    }
+    if v.iter().all(|x| x.z > near) {
+        return vec![CORNER];
+    }
+    // Sutherland–Hodgman against z > near: at most four corners remain.
+    let mut poly: Vec<[f32; 3]> = Vec::with_capacity(4);
+    for k in 0..3 {
+        let (a, b) = (k, (k + 1) % 3);
+        let (za, zb) = (v[a].z, v[b].z);
+        if za > near {
+            poly.push(CORNER[a]);
+        }
+        if (za > near) != (zb > near) {
+            let t = (near - za) / (zb - za);
+            let mut w = [0.0; 3];
+            w[a] = 1.0 - t;
+            w[b] = t;
+            poly.push(w);
+        }
+    }
+    (1..poly.len().saturating_sub(1))
+        .map(|k| [poly[0], poly[k], poly[k + 1]])
+        .collect()
+}
+
+/// `Σ w_k x_k` for barycentric weights `w`.
+#[inline]
+fn blend<T>(w: [f32; 3], x: [T; 3]) -> T
+where
+    T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    x[0] * w[0] + x[1] * w[1] + x[2] * w[2]
+}
+
+/// View-space corners of a clipped triangle: its world corners with the
+/// interpolated depths `z` (at least the near plane, which rounding in
+/// the world-space blend could undercut).
+fn clipped_view(view: &View, world: [Vec3; 3], z: [f32; 3]) -> [Vec3; 3] {
+    std::array::from_fn(|k| view.to_view(world[k]).with_z(z[k].max(view.near)))
+}
+
+/// Opaque mesh triangles, projected and clipped to the near plane,
+/// without those back-face culling skips (`cull[mesh]`, see
+/// [`super::cull::meshes_to_cull`]). Returns the triangles and the number
+/// culled.
 pub fn project_solid_tris(scene: &Scene, view: &View, cull: &[bool]) -> (Vec<SolidTri>, usize) {
     let mut culled = 0;
-    let tris = scene
-        .triangles
-        .iter()
-        .filter_map(|t| {
-            let v = t.p.map(|x| view.to_view(x));
-            if v.iter().any(|x| !(x.z > view.near)) {
-                return None;
-            }
-            let face = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
-            if cull.get(t.mesh as usize) == Some(&true) && face.dot(t.p[0] - view.eye) > 0.0 {
-                culled += 1;
-                return None;
-            }
-            Some(SolidTri {
+    let mut tris = Vec::new();
+    for t in &scene.triangles {
+        let v = t.p.map(|x| view.to_view(x));
+        let face = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
+        let parts = clip_near(v, view.near);
+        if parts.is_empty() {
+            continue;
+        }
+        if cull.get(t.mesh as usize) == Some(&true) && face.dot(t.p[0] - view.eye) > 0.0 {
+            culled += 1;
+            continue;
+        }
+        let z = v.map(|x| x.z);
+        for w in parts {
+            let world = w.map(|w| blend(w, t.p));
+            let v = clipped_view(view, world, w.map(|w| blend(w, z)));
+            tris.push(SolidTri {
                 p: v.map(|x| view.project2(x)),
                 z: v.map(|x| x.z),
-                world: t.p,
+                world,
                 normal: face.normalize_or_zero(),
                 albedo: t.albedo,
-            })
-        })
-        .collect();
+            });
+        }
+    }
     (tris, culled)
 }
 
-/// Card quads as triangles; a triangle with a corner behind the near plane
-/// is dropped (cards are not clipped).
+/// Card quads as triangles, clipped to the near plane.
 pub fn project_card_tris(scene: &Scene, view: &View) -> Vec<CardTri> {
     let c = &scene.cards;
     let mut out = Vec::with_capacity(2 * c.quad_count());
     for q in 0..c.quad_count() {
         for tri in [[0, 1, 2], [0, 2, 3]] {
             let idx = tri.map(|k| 4 * q + k);
-            let v = idx.map(|i| view.to_view(c.corners[i]));
-            if v.iter().any(|x| !(x.z > view.near)) {
-                continue;
+            let corners = idx.map(|i| c.corners[i]);
+            let v = corners.map(|x| view.to_view(x));
+            let uv = idx.map(|i| glam::Vec2::from(c.uvs[i]));
+            let z = v.map(|x| x.z);
+            for w in clip_near(v, view.near) {
+                let world = w.map(|w| blend(w, corners));
+                let v = clipped_view(view, world, w.map(|w| blend(w, z)));
+                out.push(CardTri {
+                    p: v.map(|x| view.project2(x)),
+                    z: v.map(|x| x.z),
+                    uv: w.map(|w| blend(w, uv).to_array()),
+                    world,
+                    tangent: c.tangents[q],
+                    tex: c.texture[q],
+                });
             }
-            out.push(CardTri {
-                p: v.map(|x| view.project2(x)),
-                z: v.map(|x| x.z),
-                uv: idx.map(|i| c.uvs[i]),
-                world: idx.map(|i| c.corners[i]),
-                tangent: c.tangents[q],
-                tex: c.texture[q],
-            });
         }
     }
     out

@@ -15,14 +15,16 @@ pub struct View {
     pub focal: f32,
     pub width: u32,
     pub height: u32,
-    /// Near-plane depth: 1e-4 of the distance to the far side of the scene.
+    /// Near-plane depth: 1e-4 of the distance to the far side of the hair
+    /// ([`super::setup::near_reference`]). Depths are stored linearly in
+    /// f32, so a small near plane costs no depth precision.
     pub near: f32,
 }
 
 impl View {
-    /// The view of camera `c` for a scene whose far side is `scene_radius`
-    /// away from the camera (sets the near plane).
-    pub fn new(c: &Camera, scene_radius: f32) -> Self {
+    /// The view of camera `c`; the near plane is 1e-4 of `reference`
+    /// ([`super::setup::near_reference`]).
+    pub fn new(c: &Camera, reference: f32) -> Self {
         let forward = (c.target - c.position).normalize_or(Vec3::Z);
         let right = forward.cross(c.up).normalize_or(Vec3::X);
         let up = right.cross(forward);
@@ -35,7 +37,7 @@ impl View {
             focal,
             width: c.width,
             height: c.height,
-            near: (1e-4 * scene_radius).max(1e-6),
+            near: (1e-4 * reference).max(1e-6),
         }
     }
 

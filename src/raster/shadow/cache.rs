@@ -8,12 +8,22 @@ use crate::raster::setup::{Bounds, WorldSegment};
 /// Shadow maps of recent renders, reused while nothing they depend on
 /// changed (the geometry, the light, the shadow settings): a camera move
 /// re-renders with the maps of the previous frame. Holds at most
-/// [`CACHE_MAPS`] maps (least recently used dropped first); each costs
-/// `2 · size²` floats (plus `SLABS · size²` floats and `LAYERS · size²`
-/// 16-byte deposits with the opacity model): 8 MiB at the default 1024²
-/// (112 MiB with the opacity model), so the cache holds at most 32 MiB by
-/// default (448 MiB with opacity maps).
+/// [`CACHE_MAPS`] maps and [`CACHE_BYTES`] bytes (least recently used
+/// dropped first); each map costs `2 · size²` floats (plus `SLABS · size²`
+/// floats and `LAYERS · size²` 16-byte deposits with the opacity model):
+/// 8 MiB at the default 1024² (112 MiB with the opacity model), so four
+/// maps fit at the default size with either model, while a map too large
+/// for the budget (an 8192² opacity map is 7 GiB) is used once and freed.
 pub const CACHE_MAPS: usize = 4;
+
+/// Bytes the cache may hold (see [`CACHE_MAPS`]).
+pub const CACHE_BYTES: usize = 512 << 20;
+
+/// Bytes held by a shadow map's buffers.
+pub fn map_bytes(m: &ShadowMap) -> usize {
+    (m.hair.len() + m.opaque.len() + m.slabs.len()) * std::mem::size_of::<f32>()
+        + m.layers.len() * std::mem::size_of::<super::Deposit>()
+}
 
 type CacheEntry = (u64, std::sync::Arc<ShadowMap>);
 
@@ -127,11 +137,15 @@ impl ShadowMap {
             return (None, false);
         };
         let m = std::sync::Arc::new(m);
-        let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
-        if c.len() >= CACHE_MAPS {
-            c.remove(0);
+        let bytes = map_bytes(&m);
+        if bytes <= CACHE_BYTES {
+            let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
+            let held = |c: &Vec<CacheEntry>| c.iter().map(|e| map_bytes(&e.1)).sum::<usize>();
+            while !c.is_empty() && (c.len() >= CACHE_MAPS || held(&c) + bytes > CACHE_BYTES) {
+                c.remove(0);
+            }
+            c.push((key, m.clone()));
         }
-        c.push((key, m.clone()));
         (Some(m), false)
     }
 }

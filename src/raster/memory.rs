@@ -1,0 +1,166 @@
+//! A render's memory, estimated before anything is allocated: the large
+//! buffers each stage holds at its peak, from the scene's sizes and the
+//! options alone. A render whose estimate exceeds the memory available is
+//! refused with the estimate instead of failing part-way (or being killed).
+
+use super::scene::{Light, MultipleScattering, RenderOptions, Scene};
+use super::setup::{Segment, WorldSegment};
+use super::shadow::{ShadowModel, LAYERS, SLABS};
+
+/// Estimated peak bytes per buffer group, largest items of a render.
+#[derive(Debug, Clone)]
+pub struct MemoryEstimate {
+    pub items: Vec<(&'static str, u64)>,
+}
+
+impl MemoryEstimate {
+    pub fn total(&self) -> u64 {
+        self.items.iter().map(|i| i.1).sum()
+    }
+
+    /// The largest item.
+    pub fn largest(&self) -> (&'static str, u64) {
+        self.items
+            .iter()
+            .copied()
+            .max_by_key(|i| i.1)
+            .unwrap_or(("nothing", 0))
+    }
+}
+
+/// Bytes of one shadow map at `n²` texels while it is built: first-hair
+/// and opaque depth (2 floats per texel), up to 8 per-thread depth buffers
+/// merged by `min`, and with the opacity model `SLABS` floats and
+/// `LAYERS` 16-byte deposits per texel.
+pub fn shadow_map_bytes(n: u32, model: ShadowModel) -> u64 {
+    let texels = n as u64 * n as u64;
+    let parts = crate::threads::num_threads().clamp(1, 8) as u64;
+    let mut b = texels * 4 * (2 + parts);
+    if model == ShadowModel::Opacity {
+        b += texels * (SLABS as u64 * 4 + LAYERS as u64 * 16);
+    }
+    b
+}
+
+/// Voxels of the density grid of `scene` at `resolution` (the arithmetic
+/// of [`super::density::DensityGrid::new`]); 0 without hair.
+fn density_voxels(scene: &Scene, resolution: usize) -> u64 {
+    let st = &scene.strands;
+    let (mut lo, mut hi) = (
+        glam::Vec3::splat(f32::INFINITY),
+        glam::Vec3::splat(f32::NEG_INFINITY),
+    );
+    for (p, r) in st.points.iter().zip(&st.radii) {
+        if p.is_finite() && r.is_finite() {
+            lo = lo.min(*p - glam::Vec3::splat(*r));
+            hi = hi.max(*p + glam::Vec3::splat(*r));
+        }
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return 0;
+    }
+    let res = resolution.clamp(4, 1024);
+    let voxel = ((hi - lo).max_element() / (res - 4) as f32).max(1e-6);
+    ((hi - lo) / voxel)
+        .to_array()
+        .iter()
+        .map(|e| (e.ceil() as u64 + 4).max(2))
+        .product()
+}
+
+/// The estimate for rendering `scene` with `opts` and multiple scattering
+/// `ms` (dual scattering needs the density grid).
+pub fn estimate(scene: &Scene, opts: &RenderOptions, ms: MultipleScattering) -> MemoryEstimate {
+    let c = &scene.camera;
+    let pixels = c.width as u64 * c.height as u64;
+    let vertices = scene.strands.points.len() as u64;
+    let segments = vertices.saturating_sub(scene.strands.strand_count() as u64);
+    let shadowed = scene
+        .lights
+        .iter()
+        .filter(|l| {
+            matches!(
+                l,
+                Light::Directional { shadows: true, .. } | Light::Point { shadows: true, .. }
+            )
+        })
+        .count() as u64;
+    let mut items = vec![
+        // The tiles' results and the assembled image, RGB float each.
+        ("image (framebuffer and tiles)", pixels * 12 * 2),
+        (
+            "strand segments",
+            segments
+                * (std::mem::size_of::<Segment>() + std::mem::size_of::<WorldSegment>()) as u64
+                + vertices * 12 * 2,
+        ),
+        (
+            "shadow maps",
+            shadowed * shadow_map_bytes(opts.shadow_map_size.max(16), opts.shadow_model),
+        ),
+    ];
+    let density = opts.shadow_model == ShadowModel::Density || ms == MultipleScattering::Dual;
+    if density && shadowed > 0 {
+        // Moments (7 floats) summed from 8 per-chunk grids, and [n, clear]
+        // per voxel for each light.
+        let voxels = density_voxels(scene, opts.density_resolution);
+        items.push(("density grid", voxels * (28 * 9 + 8 * shadowed)));
+    }
+    if opts.shadow_model == ShadowModel::Traced {
+        // Capsules and their cell lists.
+        items.push(("traced segment grid", segments * 64));
+    }
+    MemoryEstimate { items }
+}
+
+/// Bytes this process can still allocate, as far as the system says: the
+/// smaller of the memory available (`MemAvailable`) and what the
+/// address-space limit leaves; None where it cannot be read (not Linux).
+pub fn available_bytes() -> Option<u64> {
+    let field = |text: &str, key: &str| -> Option<u64> {
+        let line = text.lines().find(|l| l.starts_with(key))?;
+        line[key.len()..]
+            .split_whitespace()
+            .next()?
+            .parse::<u64>()
+            .ok()
+    };
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let mut avail = field(&meminfo, "MemAvailable:")? * 1024;
+    if let (Ok(limits), Ok(status)) = (
+        std::fs::read_to_string("/proc/self/limits"),
+        std::fs::read_to_string("/proc/self/status"),
+    ) {
+        if let (Some(limit), Some(used)) = (
+            field(&limits, "Max address space"),
+            field(&status, "VmSize:"),
+        ) {
+            avail = avail.min(limit.saturating_sub(used * 1024));
+        }
+    }
+    Some(avail)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn t01_shadow_map_bytes_grow_with_texels_and_model() {
+        let e = shadow_map_bytes(1024, ShadowModel::Exponential);
+        let o = shadow_map_bytes(1024, ShadowModel::Opacity);
+        assert!(e >= 8 << 20);
+        assert_eq!(
+            o - e,
+            (1024 * 1024) * (SLABS as u64 * 4 + LAYERS as u64 * 16)
+        );
+        assert_eq!(shadow_map_bytes(2048, ShadowModel::Exponential), 4 * e);
+    }
+
+    #[test]
+    fn t02_available_bytes_is_positive_on_linux() {
+        if cfg!(target_os = "linux") {
+            assert!(available_bytes().unwrap() > 0);
+        }
+    }
+}

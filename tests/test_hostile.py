@@ -1,0 +1,509 @@
+"""Hostile files, huge inputs and slow work: every case ends in a Python
+exception that names the file or the field, or in a correct image, within
+seconds and under a memory cap; none aborts the interpreter or hangs.
+
+Each group of cases runs in one child process (``run_cases``) whose
+address space is capped with ``RLIMIT_AS`` and whose run time is bounded
+by a timeout: an abort ("memory allocation of N bytes failed"), an
+out-of-memory kill or a hang fails the test and names the case that was
+running. A case is a snippet that either raises (its exception's type and
+message are compared) or stores its result in ``result``.
+
+The caps: the interpreter with numpy and hairshade imported maps ~220 MB
+(``VmSize`` measured after the first batch call starts the thread pool),
+so 1.5 GiB leaves every legitimate case room while any of the reproducers
+(which asked for 4 GB to 40 GB) fails fast.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import struct
+import subprocess
+import sys
+import textwrap
+import time
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hairshade as hs
+
+GIB = 1 << 30
+PYTHON_DIR = str(Path(hs.__file__).resolve().parent.parent)
+
+PRELUDE = """
+import json, os, resource, sys, traceback
+resource.setrlimit(resource.RLIMIT_AS, ({cap}, {cap}))
+import numpy as np
+import hairshade as hs
+from hairshade import _native
+CASES = json.loads(sys.argv[1])
+for name, code in CASES:
+    print(json.dumps({{"start": name}}), flush=True)
+    ns = {{"np": np, "hs": hs, "_native": _native, "os": os, "result": None}}
+    try:
+        exec(code, ns)
+        out = {{"case": name, "ok": repr(ns["result"])[:400]}}
+    except BaseException as e:
+        out = {{"case": name, "exc": type(e).__name__, "msg": str(e)[:2000]}}
+    print(json.dumps(out), flush=True)
+"""
+
+
+def run_cases(cases: dict[str, str], cap: int = 3 * GIB // 2, timeout: float = 60, env: dict | None = None,
+              cwd: str | None = None) -> dict[str, dict]:
+    """Runs each snippet in one child process under an address-space cap;
+    returns {case: {"exc": type name, "msg": message} or {"ok": repr}}."""
+    items = [(k, textwrap.dedent(v)) for k, v in cases.items()]
+    e = dict(os.environ, PYTHONPATH=PYTHON_DIR, **(env or {}))
+    try:
+        r = subprocess.run([sys.executable, "-c", PRELUDE.format(cap=cap), json.dumps(items)], capture_output=True,
+                           text=True, timeout=timeout, env=e, cwd=cwd)
+    except subprocess.TimeoutExpired as t:
+        out = t.stdout.decode() if isinstance(t.stdout, bytes) else (t.stdout or "")
+        raise AssertionError(f"timed out after {timeout} s; last lines:\n{out[-1500:]}") from None
+    results, started = {}, None
+    for line in r.stdout.splitlines():
+        d = json.loads(line)
+        if "start" in d:
+            started = d["start"]
+        else:
+            results[d.pop("case")] = d
+    assert r.returncode == 0 and len(results) == len(items), (
+        f"child ended with status {r.returncode} during case {started!r}:\n{r.stderr[-3000:]}")
+    return results
+
+
+def expect(results: dict[str, dict], case: str, exc: str | tuple[str, ...], *words: str) -> None:
+    """The case raised `exc` with every one of `words` in its message."""
+    r = results[case]
+    excs = (exc,) if isinstance(exc, str) else exc
+    assert r.get("exc") in excs, f"{case}: expected {excs}, got {r}"
+    for w in words:
+        assert w in r["msg"], f"{case}: {w!r} not in message {r['msg']!r}"
+
+
+# -- hostile files ---------------------------------------------------------------
+
+
+def _chunk(tag: bytes, data: bytes) -> bytes:
+    return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+
+def png_bytes(width: int, height: int, idat: bytes = b"") -> bytes:
+    """A PNG (8-bit RGBA) whose header claims `width` x `height`."""
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", ihdr) + _chunk(b"IDAT", zlib.compress(idat)) + _chunk(b"IEND", b"")
+
+
+def exr_claiming(path: Path, width: int, height: int) -> None:
+    """A small valid EXR whose data window is then rewritten to `width` x `height`."""
+    hs.write_exr(path, np.full((4, 4, 3), 0.5, np.float32))
+    data = bytearray(path.read_bytes())
+    key = b"dataWindow\x00box2i\x00"
+    i = data.index(key) + len(key) + 4  # the attribute's size, then x0 y0 x1 y1
+    data[i:i + 16] = struct.pack("<iiii", 0, 0, width - 1, height - 1)
+    path.write_bytes(bytes(data))
+
+
+def scene(folder: Path, hair: dict | None = None, name: str = "s.json", **top) -> Path:
+    """A minimal scene file in `folder` (camera at z = 3 looking at the origin)."""
+    d = {"hairshade_scene": 1, "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "resolution": [32, 18]},
+         "hair": hair if hair is not None else {}, **top}
+    p = folder / name
+    p.write_text(json.dumps(d))
+    return p
+
+
+def test_01_image_headers_claiming_huge_sizes(tmp_path):
+    """The 68-byte PNG claiming 100000^2 pixels and the 2 KB EXR claiming
+    60000^2 (40 GB and 43 GB as float32): refused from their headers in
+    read_png/read_exr, as card alpha textures and in `hairshade compare`;
+    a header within the pixel limit but beyond what the file's bytes can
+    hold is refused too."""
+    (tmp_path / "huge.png").write_bytes(png_bytes(100_000, 100_000))
+    (tmp_path / "big.png").write_bytes(png_bytes(16_000, 16_000))  # 2^28 > 2.6e8 px, 1 GB, in ~60 bytes
+    exr_claiming(tmp_path / "huge.exr", 60_000, 60_000)
+    exr_claiming(tmp_path / "big.exr", 8_000, 8_000)
+    assert len((tmp_path / "huge.png").read_bytes()) < 100 and len((tmp_path / "huge.exr").read_bytes()) < 2048
+    for name in ("huge.png", "huge.exr"):
+        scene(tmp_path, {"cards": [{"points": [[0, 0, 0], [0, 1, 0]], "width": 0.1, "alpha": {"image": name}}]},
+              name=f"{name}.json")
+    r = run_cases({
+        "png": f"_native.read_png({str(tmp_path / 'huge.png')!r})",
+        "exr": f"hs.read_exr({str(tmp_path / 'huge.exr')!r})",
+        "png_small_file": f"_native.read_png({str(tmp_path / 'big.png')!r})",
+        "exr_small_file": f"hs.read_exr({str(tmp_path / 'big.exr')!r})",
+        "card_png": f"hs.Scene.load({str(tmp_path / 'huge.png.json')!r})",
+        "card_exr": f"hs.Scene.load({str(tmp_path / 'huge.exr.json')!r})",
+        "limit_is_configurable": f"_native.read_exr({str(tmp_path / 'big.exr')!r}, 1000)",
+    })
+    expect(r, "png", "ValueError", "huge.png", "100000x100000", "limit")
+    expect(r, "exr", "ValueError", "huge.exr", "60000x60000", "limit")
+    expect(r, "png_small_file", "ValueError", "big.png", "truncated or corrupt")
+    expect(r, "exr_small_file", "ValueError", "big.exr", "truncated or corrupt")
+    expect(r, "card_png", "SceneError", "hair.cards[0].alpha", "huge.png", "limit")
+    expect(r, "card_exr", "SceneError", "hair.cards[0].alpha", "huge.exr", "limit")
+    expect(r, "limit_is_configurable", "ValueError", "big.exr", "limit of 1000")
+    out = subprocess.run([sys.executable, "-m", "hairshade", "compare", str(tmp_path / "huge.exr"),
+                          str(tmp_path / "huge.exr")], capture_output=True, text=True, timeout=60,
+                         env=dict(os.environ, PYTHONPATH=PYTHON_DIR))
+    assert out.returncode == 2 and "huge.exr" in out.stderr and "limit" in out.stderr, out
+
+
+def test_02_unreadable_and_unsafe_files_name_the_file(tmp_path):
+    """Non-UTF-8 scene, OBJ and strand files; a folder given as a file; a
+    401-digit integer; JSON nested 100000 deep; NaN in an alpha EXR; files
+    outside the scene's folder (refused unless allowed); /dev/zero and
+    /proc/self/environ even when allowed (not regular / not text, never
+    echoed)."""
+    latin1 = b'{"hairshade_scene": 1, "x": "caf\xe9"}'
+    (tmp_path / "latin1.json").write_bytes(latin1)
+    (tmp_path / "bad.obj").write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 \xff\n")
+    (tmp_path / "bad.txt").write_bytes(b"0 0 0 0.01\n\xfe 1 0 0.01\n")
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    nan = np.full((4, 4, 3), 0.5, np.float32)
+    nan[2, 1] = np.nan
+    hs.write_exr(tmp_path / "nan.exr", nan)
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    (tmp_path / "outside.txt").write_text("0 0 0 0.01\n0 1 0 0.01\n")
+    card = lambda img: {"cards": [{"points": [[0, 0, 0], [0, 1, 0]], "width": 0.1, "alpha": {"image": img}}]}  # noqa: E731
+    scenes = {
+        "obj": scene(tmp_path, meshes=[{"type": "obj", "file": "bad.obj"}], name="obj.json"),
+        "strands": scene(tmp_path, {"file": "bad.txt"}, name="strands.json"),
+        "folder": scene(tmp_path, {"file": "folder"}, name="folder.json"),
+        "nan_alpha": scene(tmp_path, card("nan.exr"), name="nan.json"),
+        "escape": scene(sub, {"file": "../outside.txt"}, name="escape.json"),
+        "absolute": scene(sub, {"file": "/proc/self/environ"}, name="abs.json"),
+        "dev_zero": scene(sub, {"file": "/dev/zero"}, name="zero.json"),
+    }
+    (tmp_path / "huge_int.json").write_text(
+        '{"hairshade_scene": 1, "camera": {"position": [0, 0, 3], "target": [0, 0, ' + "9" * 401 + "]}}")
+    load = lambda p, **k: f"hs.Scene.load({str(p)!r}{''.join(f', {a}={v}' for a, v in k.items())})"  # noqa: E731
+    r = run_cases({
+        "utf8": load(tmp_path / "latin1.json"),
+        "dir_scene": load(tmp_path / "folder"),
+        "deep": load(tmp_path / "deep.json"),
+        "huge_int": load(tmp_path / "huge_int.json"),
+        **{k: load(p) for k, p in scenes.items()},
+        "escape_allowed": f"result = {load(scenes['escape'], allow_outside=True)}.strand_count",
+        "environ_allowed": load(scenes["absolute"], allow_outside=True),
+        "dev_zero_allowed": load(scenes["dev_zero"], allow_outside=True),
+    }, env={"HAIRSHADE_FUZZ_SECRET": "s3cr3t-value"})
+    expect(r, "utf8", "SceneError", "latin1.json", "not UTF-8", f"byte {latin1.index(0xE9)}")
+    expect(r, "dir_scene", "SceneError", "folder", "is a folder")
+    expect(r, "deep", "SceneError", "deep.json", "nested too deeply")
+    expect(r, "huge_int", "SceneError", "camera.target[2]", "401 digits")
+    expect(r, "obj", "SceneError", "meshes[0].file", "bad.obj", "not UTF-8")
+    expect(r, "strands", "SceneError", "hair.file", "bad.txt", "not UTF-8")
+    expect(r, "folder", "SceneError", "hair.file", "is a folder")
+    expect(r, "nan_alpha", "SceneError", "hair.cards[0].alpha", "nan.exr", "not finite", "x=1, y=2")
+    expect(r, "escape", "SceneError", "hair.file", "outside the scene's folder", "allow_outside")
+    expect(r, "absolute", "SceneError", "hair.file", "outside the scene's folder")
+    assert r["escape_allowed"] == {"ok": "1"}
+    # /proc files are regular files; this one is not text and is not echoed.
+    expect(r, "environ_allowed", "SceneError", "hair.file", "environ")
+    assert "s3cr3t" not in r["environ_allowed"]["msg"] and "PATH" not in r["environ_allowed"]["msg"]
+    expect(r, "dev_zero_allowed", "SceneError", "hair.file", "/dev/zero", "not a regular file")
+
+
+# -- huge inputs -----------------------------------------------------------------
+
+
+def test_03_huge_allocations_raise_memory_error(tmp_path):
+    """Under the issue's 2.5 GiB cap: eval on 6e7 float64 pairs (1.44 GB of
+    input, then 1.44 GB of output), a 16384^2 render (6 GiB), two shadowed
+    lights with 8192^2 opacity maps (7 GiB each) and `generate` with 2e6
+    strands x 256 segments (84 GiB at the measured 176 B/vertex):
+    MemoryError naming what was too big, before any of it is allocated;
+    the process goes on working afterwards."""
+    strands = {"strands": [{"points": [[0, -0.5, 0], [0, 0.5, 0]], "radius": 0.01}]}
+    lights = [{"type": "directional", "direction": [1, 1, 1], "intensity": [3, 3, 3], "shadows": True},
+              {"type": "directional", "direction": [-1, 1, 1], "intensity": [3, 3, 3], "shadows": True}]
+    scene(tmp_path, strands, name="big_render.json")
+    scene(tmp_path, strands, name="opacity.json", lights=lights,
+          render={"shadow_model": "opacity", "shadow_map_size": 8192})
+    scene(tmp_path, {"generate": {"kind": "head", "strands": 2_000_000, "segments": 256}}, name="gen.json")
+    r = run_cases({
+        "eval": """
+            wo = np.zeros((60_000_000, 3)); wo[:, 2] = 1
+            hs.ChiangHair().eval(np.array([1.0, 0, 0]), wo)""",
+        "render_16k": f"hs.render(hs.Scene.load({str(tmp_path / 'big_render.json')!r}), width=16384, height=16384)",
+        "opacity_8k": f"hs.render(hs.Scene.load({str(tmp_path / 'opacity.json')!r}))",
+        "generate": f"hs.Scene.load({str(tmp_path / 'gen.json')!r})",
+        "still_works": "result = float(hs.ChiangHair().eval([0, 0.2, 1.0], [0.3, -0.2, 0.9]).sum() > 0)",
+    }, cap=5 * GIB // 2)
+    expect(r, "eval", "MemoryError", "output array of 180000000 values")
+    expect(r, "render_16k", "MemoryError", "image (framebuffer and tiles)", "GiB available")
+    expect(r, "opacity_8k", "MemoryError", "shadow maps", "shadow_map_size")
+    expect(r, "generate", ("MemoryError", "SceneError"), "2000000 strands of 256 segments", "GiB")
+    assert r["still_works"] == {"ok": "1.0"}
+
+
+def test_04_shadow_map_cache_is_bounded_in_bytes(tmp_path):
+    """Two shadowed lights with 1536^2 opacity maps (283 MB each, 566 MB
+    together): the cache keeps what fits in its 512 MiB, one map. Measured
+    as the process's mapped size (VmSize: large buffers are mappings of
+    their own, freed on drop) after the render and `del`, against the size
+    after two warm-up renders with 16^2 maps (thread pool and allocator
+    arenas already set up): measured 283.1 MB, one map's 283.1 MB (without
+    the byte bound both maps stay: 566 MB). Slack: 16 MB."""
+    lights = [{"type": "directional", "direction": [1, 1, 1], "intensity": [3, 3, 3], "shadows": True},
+              {"type": "directional", "direction": [-1, 1, 1], "intensity": [3, 3, 3], "shadows": True}]
+    p = scene(tmp_path, {"strands": [{"points": [[0, -0.5, 0], [0, 0.5, 0]], "radius": 0.01}]}, lights=lights,
+              render={"shadow_model": "opacity", "shadow_map_size": 1536})
+    r = run_cases({"held": f"""
+        import gc
+        size = lambda: next(int(l.split()[1]) * 1024 for l in open('/proc/self/status') if l.startswith('VmSize'))
+        s = hs.Scene.load({str(p)!r})
+        warm = hs.Scene.load({str(p)!r})
+        warm.render["shadow_map_size"] = 16
+        hs.render(warm, width=32, height=18)
+        hs.render(warm, width=32, height=18)
+        before = size()
+        img = hs.render(s, width=32, height=18)
+        del img, s
+        gc.collect()
+        result = size() - before"""}, cap=3 * GIB)
+    held = int(r["held"]["ok"])
+    one_map = 1536**2 * (2 * 4 + 12 * 4 + 4 * 16)
+    assert one_map <= held < one_map + (16 << 20), f"{held / 2**20:.0f} MiB held after the render"
+
+
+# -- hangs -------------------------------------------------------------------------
+
+
+def test_05_values_beyond_float32_and_unbounded_work_are_refused(tmp_path):
+    """A radius of 1e39 (inf in float32: the shadowed render never
+    returned), light intensity 1e300, SH 1e300, points 1e39, a background of
+    1e39, DEonHair(h_samples=10**9): refused, naming the field."""
+    light = {"type": "directional", "direction": [1, 1, 1], "intensity": [3, 3, 3], "shadows": True}
+    strand = lambda **k: {"strands": [{"points": [[0, -0.5, 0], [0, 0.5, 0]], "radius": 0.01, **k}]}  # noqa: E731
+    cases = {
+        "radius": scene(tmp_path, strand(radius=1e39), name="r.json", lights=[light]),
+        "intensity": scene(tmp_path, strand(), name="i.json", lights=[{**light, "intensity": [1e300, 1, 1]}]),
+        "sh": scene(tmp_path, strand(), name="sh.json",
+                    lights=[{"type": "environment", "sh": [[1e300, 0, 0]] + [[0, 0, 0]] * 8}]),
+        "points": scene(tmp_path, strand(points=[[0, 0, 0], [0, 1e39, 0]]), name="p.json"),
+        "background": scene(tmp_path, strand(), name="b.json", render={"background": [1e39, 0, 0]}),
+    }
+    r = run_cases({**{k: f"hs.Scene.load({str(p)!r})" for k, p in cases.items()},
+                   "h_samples": "hs.DEonHair(h_samples=10**9)"}, timeout=30)
+    expect(r, "radius", "SceneError", "hair.strands[0].radius", "1e+39")
+    expect(r, "intensity", "SceneError", "lights[0].intensity[0]")
+    expect(r, "sh", "SceneError", "lights[0].sh[0][0]")
+    expect(r, "points", "SceneError", "hair.strands[0].points[1][1]")
+    expect(r, "background", "SceneError", "render.background", "float32")
+    expect(r, "h_samples", "ValueError", "h_samples", "1048576")
+
+
+def _interrupt_after(code: str, delay: float, timeout: float = 20) -> tuple[float, str]:
+    """Runs `code` in a child, sends SIGINT `delay` s after it printed
+    'go'; returns (seconds from the signal to the child's exit, stderr)."""
+    prog = "import numpy as np, hairshade as hs\n" + textwrap.dedent(code)
+    p = subprocess.Popen([sys.executable, "-c", prog], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env=dict(os.environ, PYTHONPATH=PYTHON_DIR))
+    assert p.stdout.readline().strip() == "go"
+    time.sleep(delay)
+    t = time.perf_counter()
+    p.send_signal(signal.SIGINT)
+    try:
+        _, err = p.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        raise AssertionError("the batch ignored Ctrl-C") from None
+    return time.perf_counter() - t, err
+
+
+@pytest.mark.parametrize("call", [
+    "hs.ChiangHair().eval_far(wi, wo)",
+    "hs.DEonHair().eval(wi, wo, [0, 1.0, 0])",  # converged: ~1 ms a pair
+])
+def test_06_batch_calls_stop_on_ctrl_c(call):
+    """eval_far by quadrature and converged DEonHair on 3e6 pairs (minutes
+    of work): Ctrl-C raises KeyboardInterrupt within a second (the batch
+    checks every 50 ms and every 64 pairs; measured 0.08 to 0.16 s; 3 s
+    allows for a loaded 2-core machine)."""
+    dt, err = _interrupt_after(f"""
+        wi = np.tile([[0.3, 0.2, 0.9]], (3_000_000, 1)); wo = np.tile([[0.1, -0.3, 0.8]], (3_000_000, 1))
+        print("go", flush=True)
+        {call}
+        print("finished")""", delay=1.0)
+    assert "KeyboardInterrupt" in err, err[-2000:]
+    assert dt < 3.0, f"{dt:.2f} s from Ctrl-C to exit"
+
+
+# -- wrong results -----------------------------------------------------------------
+
+
+def _base(**extra) -> dict:
+    return {"hairshade_scene": 1,
+            "camera": {"position": [0, 0, 1], "target": [0, 0, 0], "fov": 40, "resolution": [48, 32]},
+            "lights": [{"type": "directional", "direction": [0, 1, 1], "intensity": [2, 2, 2], "shadows": False}],
+            **extra}
+
+
+def test_07_near_plane_follows_the_hair_not_the_ground():
+    """A strand 1 from the camera with and without a ground sphere of
+    radius 1e4 (which used to put the near plane at 2, past the strand):
+    the same segments reach the image and the hair pixels are equal."""
+    hair = {"strands": [{"points": [[-0.2, 0, 0], [0.2, 0, 0]], "radius": 0.01}]}
+    alone = hs.render(hs.Scene.from_dict(_base(hair=hair)), return_stats=True, progress=False)
+    ground = _base(hair=hair, meshes=[{"type": "sphere", "center": [0, -1.0e4 - 1, 0], "radius": 1.0e4}])
+    with_ground = hs.render(hs.Scene.from_dict(ground), return_stats=True, progress=False)
+    assert alone[1]["segments_visible"] == with_ground[1]["segments_visible"] == 1
+    hair_px = alone[0].sum(axis=2) > 0
+    assert hair_px.sum() > 10
+    np.testing.assert_array_equal(with_ground[0][hair_px], alone[0][hair_px])
+
+
+def test_08_triangles_crossing_the_near_plane_are_clipped():
+    """A floor of half-size 2e4 reaching under the camera (height 1,
+    looking along -z): its triangles cross the near plane. Clipped, the
+    floor fills the lower half of the image with the Lambertian radiance
+    albedo/pi * E * cos(theta) (the same at every point of a flat floor
+    under a directional light; 1e-4 relative: float32 shading), and the
+    upper half stays background."""
+    s = 2.0e4
+    floor = [[-s, -1, -s], [s, -1, -s], [s, -1, s], [-s, -1, s]]
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        Path(d, "floor.obj").write_text("".join(f"v {x} {y} {z}\n" for x, y, z in floor) + "f 1 4 3 2\n")
+        sc = _base(meshes=[{"type": "obj", "file": "floor.obj", "albedo": [0.5, 0.5, 0.5]}])
+        sc["camera"] = {"position": [0, 0, 0], "target": [0, 0, -1], "fov": 60, "resolution": [48, 32]}
+        img = hs.render(hs.Scene.from_dict(sc, base_dir=d), progress=False)
+    expected = 0.5 / np.pi * 2.0 * (1 / np.sqrt(2))  # direction (0, 1, 1): cos theta = 1/sqrt(2)
+    np.testing.assert_allclose(img[-8:], expected, rtol=1e-4)
+    assert np.all(img[:8] == 0)
+
+
+def test_08b_vertex_shading_of_a_strand_clipped_at_the_near_plane():
+    """One segment from behind the camera to 1.5 in front, shaded per
+    vertex: the clipped end is shaded where it lies, not interpolated from
+    the vertex behind the camera (seen from the wrong side). Against
+    per-pixel shading of the same strand, the image's total radiance
+    differs by 61 % (measured; the rest is linear interpolation along one
+    long segment, which per-pixel shading does not do); interpolating from
+    the vertex behind the camera differed by 89 %. Bound: 75 %."""
+    a, b = np.array([-1.5, -0.3, 0.5]), np.array([0.3, -0.3, -1.5])
+    d = {"hairshade_scene": 1,
+         "camera": {"position": [0, 0, 0], "target": [0, 0, -1], "fov": 60, "resolution": [64, 48]},
+         "lights": [{"type": "directional", "direction": [0, 1, 0.3], "intensity": [3, 3, 3], "shadows": False}],
+         "hair": {"strands": [{"points": [a.tolist(), b.tolist()], "radius": 0.004}]}}
+    total = {}
+    for shading in ("pixel", "vertex"):
+        d["render"] = {"shading": shading}
+        total[shading] = float(hs.render(hs.Scene.from_dict(d), progress=False).sum())
+    assert total["pixel"] > 0.1
+    assert abs(total["vertex"] - total["pixel"]) < 0.75 * total["pixel"], total
+
+
+def test_09_karis_shadow_range_and_to_chiang_eta():
+    """KarisHair's `shadow` outside [0, 1] (200 made a channel 0 and MS
+    NaN) is refused; `mapping.to_chiang` keeps DEonHair's eta."""
+    from hairshade import mapping
+
+    k = hs.KarisHair()
+    with pytest.raises(ValueError, match=r"shadow: must be in \[0.0, 1.0\], got 200"):
+        k.eval_lobes([0, 0.2, 1.0], [0.3, -0.2, 0.9], [0, 1, 0], shadow=200)
+    ms = k.eval_lobes([0, 0.2, 1.0], [0.3, -0.2, 0.9], [0, 1, 0], shadow=1.0)["MS"]
+    assert np.all(np.isfinite(ms))
+    assert mapping.chiang_params(hs.DEonHair(eta=3.0), fit=False)["eta"] == 3.0
+    assert mapping.chiang_params(hs.KarisHair(), fit=False)["eta"] == 1.55
+
+
+# -- validation ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("change, field, words", [
+    (lambda d: d.update(hairshade_scene=True), "hairshade_scene", "expected version 1"),
+    (lambda d: d["camera"].update(resolution=[48.5, 32]), "camera.resolution[0]", "expected an integer"),
+    (lambda d: d.update(render={"layers": 4.5}), "render.layers", "integer"),
+    (lambda d: d.update(hair={"material": {"model": "karis", "roughness": "0.5"}}), "hair.material", "roughness"),
+    (lambda d: d.update(hair={"material": {"model": "deon", "h_samples": 2.5}}), "hair.material", "h_samples"),
+    (lambda d: d.update(hair={"cards": [{"points": [[0, 0, 0], [0, 1, 0]], "width": 0.1,
+                                         "alpha": {"bake": {}, "color": 1}}]}), "hair.cards[0].alpha", "color"),
+    (lambda d: d.update(hair={"cards": [{"points": [[0, 0, 0], [0, 1, 0]], "width": 0.1,
+                                         "alpha": {"bake": {}, "image": "a.png"}}]}), "hair.cards[0].alpha",
+     "not both"),
+    (lambda d: d.update(hair={"strands": [{"points": [[0, 0, 0], [0, 1, 0]], "radius": 0.01, "radii": [0, 0]}]}),
+     "hair.strands[0]", "not both"),
+    (lambda d: d.update(hair={"generate": {"kind": "head", "strands": 10.5}}), "hair.generate", "strands"),
+    (lambda d: d.update(hair={"strands": [{"points": [[0, 0, 0], [0, "1", 0]]}]}), "hair.strands[0].points[1][1]",
+     "expected a number"),
+])
+def test_10_strict_scene_validation(change, field, words):
+    """Booleans, strings and fractions where numbers or integers belong,
+    unknown keys and mutually exclusive keys: a SceneError naming the field."""
+    d = _base()
+    change(d)
+    with pytest.raises(hs.SceneError) as e:
+        hs.Scene.from_dict(d, source="t.json")
+    msg = str(e.value)
+    assert msg.startswith(f"t.json: {field}") and words in msg, msg
+    assert msg.count("hair.generate") <= 1, msg
+
+
+def test_11_api_type_errors_name_the_parameter():
+    """Strings where numbers belong name the parameter (not Python's bare
+    "could not convert string to float"); boolean arrays are not directions;
+    HAIRSHADE_SIMD=bogus is refused at import with the allowed values."""
+    with pytest.raises(TypeError, match="roughness: expected a number, got 'abc'"):
+        hs.KarisHair(roughness="abc")
+    with pytest.raises(TypeError, match="eta: expected a number"):
+        hs.DEonHair(eta="1.5")
+    with pytest.raises(TypeError, match="sigma_a: expected a number or 3 numbers"):
+        hs.ChiangHair(sigma_a="0.5")
+    with pytest.raises(TypeError, match="separable_r: expected True or False"):
+        hs.KarisHair(separable_r=1)
+    with pytest.raises(ValueError, match="wi: expected real numbers, got booleans"):
+        hs.ChiangHair().eval(np.array([True, False, True]), [0, 0, 1.0])
+    out = subprocess.run([sys.executable, "-c", "import hairshade"], capture_output=True, text=True, timeout=60,
+                         env=dict(os.environ, PYTHONPATH=PYTHON_DIR, HAIRSHADE_SIMD="bogus"))
+    assert out.returncode != 0 and "HAIRSHADE_SIMD" in out.stderr and "'avx2'" in out.stderr, out.stderr
+
+
+# -- command line ----------------------------------------------------------------------
+
+
+def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "hairshade", *args], capture_output=True, text=True, timeout=120,
+                          cwd=cwd, env=dict(os.environ, PYTHONPATH=PYTHON_DIR))
+
+
+def test_12_cli_outputs_and_compare_guards(tmp_path):
+    """`render -o out.png --png` writes one PNG (not EXR bytes); an unknown
+    extension and `--exposure nan` are refused; `compare` of NaN images
+    exits non-zero naming the file; `compare` against a black reference
+    reports FLIP as undefined instead of dying inside flip-evaluator."""
+    scene(tmp_path, {"strands": [{"points": [[0, -0.5, 0], [0, 0.5, 0]], "radius": 0.05}]},
+          lights=[{"type": "directional", "direction": [0, 0, 1], "intensity": [1, 1, 1]}])
+    r = _cli("render", "s.json", "-o", "out.png", "--png", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "out.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not (tmp_path / "out.exr").exists() and r.stdout.count("out.png") == 1
+    r = _cli("render", "s.json", "-o", "out.xyz", cwd=tmp_path)
+    assert r.returncode == 2 and "out.xyz" in r.stderr and ".exr or .png" in r.stderr
+    r = _cli("render", "s.json", "--exposure", "nan", cwd=tmp_path)
+    assert r.returncode == 2 and "--exposure" in r.stderr
+    nan = np.zeros((4, 4, 3), np.float32)
+    nan[1, 1] = np.nan
+    hs.write_exr(tmp_path / "nan.exr", nan)
+    hs.write_exr(tmp_path / "black.exr", np.zeros((4, 4, 3), np.float32))
+    hs.write_exr(tmp_path / "grey.exr", np.full((4, 4, 3), 0.5, np.float32))
+    r = _cli("compare", "nan.exr", "nan.exr", cwd=tmp_path)
+    assert r.returncode == 2 and "nan.exr: 1 pixel(s) not finite" in r.stderr
+    r = _cli("compare", "grey.exr", "black.exr", cwd=tmp_path)
+    assert r.returncode == 0 and "mean FLIP nan" in r.stdout and "black" in r.stderr, (r.stdout, r.stderr)
+    # A uniform reference of 1e-10: FLIP's own exposure range comes out
+    # reversed by rounding and it ends the process; contained in a child.
+    hs.write_exr(tmp_path / "dim.exr", np.full((4, 4, 3), 1e-10, np.float32))
+    r = _cli("compare", "grey.exr", "dim.exr", cwd=tmp_path)
+    assert r.returncode == 0 and "FLIP failed" in r.stderr, (r.stdout, r.stderr)
