@@ -147,7 +147,15 @@ pub fn render_with_progress(
         }
         _ => None,
     };
-    let shader = Shader::new(scene, &shadows, counts, traced, env_lights, opts);
+    let shader = Shader::new(
+        scene,
+        &shadows,
+        counts,
+        traced,
+        env_lights,
+        Some(cancel),
+        opts,
+    );
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();

@@ -76,6 +76,10 @@ pub struct Shader<'a> {
     traced: Option<SegmentGrid>,
     /// The environment as directional lights (ChiangHair, DEonHair).
     env_lights: Option<super::env_light::EnvLights>,
+    /// The render's cancel flag: once set, shading returns 0 at once (the
+    /// render is discarded), so that a slow model (converged DEonHair,
+    /// about 1 ms a fragment) stops within a fragment, not a tile.
+    cancel: Option<&'a std::sync::atomic::AtomicBool>,
     /// Upper bound of the hair BSDF's value over all directions (KarisHair;
     /// `None`: no light culling).
     f_max: Option<f32>,
@@ -104,6 +108,7 @@ impl<'a> Shader<'a> {
         counts: Vec<Option<FiberCount>>,
         traced: Option<SegmentGrid>,
         env_lights: Option<super::env_light::EnvLights>,
+        cancel: Option<&'a std::sync::atomic::AtomicBool>,
         opts: &RenderOptions,
     ) -> Self {
         let (skip_unused, cull_threshold) = (opts.skip_unused, opts.light_cull_threshold);
@@ -143,11 +148,19 @@ impl<'a> Shader<'a> {
             count_shadows: opts.shadow_model == super::shadow::ShadowModel::Density,
             traced,
             env_lights,
+            cancel,
             f_max,
             cull_threshold,
             culled: Default::default(),
             culled_max_bits: Default::default(),
         }
+    }
+
+    /// Whether the render was cancelled.
+    #[inline]
+    pub fn cancelled(&self) -> bool {
+        self.cancel
+            .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
     }
 
     /// Whether [`Self::shade_batch`] and [`Self::shade_serial`] serve this
@@ -442,6 +455,9 @@ impl<'a> Shader<'a> {
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
     pub fn shade(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
         let mut out = Vec3::ZERO;
+        if self.cancelled() {
+            return out;
+        }
         let mut tally = CullTally::default();
         for (li, (light, sm)) in self.scene.lights.iter().zip(self.shadows).enumerate() {
             let (l, e) = light.incident(p);
@@ -695,7 +711,7 @@ mod tests {
             light_cull_threshold: 0.0,
             ..Default::default()
         };
-        let shader = Shader::new(&scene, &shadows, vec![None; 2], None, None, &opts);
+        let shader = Shader::new(&scene, &shadows, vec![None; 2], None, None, None, &opts);
         let eye = scene.camera.position;
         let batched = shade_vertices(&scene, &shader, eye, None);
         let st = &scene.strands;
