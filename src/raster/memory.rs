@@ -106,6 +106,15 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions, ms: MultipleScattering) -> 
         let voxels = density_voxels(scene, opts.density_resolution);
         items.push(("density grid", voxels * (28 * 9 + 8 * shadowed)));
     }
+    if scene.environment.is_some() && !matches!(scene.hair, super::scene::HairShading::Karis(_)) {
+        // The environment light of a far-field model: a grid at a quarter
+        // resolution, [n, clear] per voxel for each direction.
+        let voxels = density_voxels(scene, (opts.density_resolution / 4).max(16));
+        items.push((
+            "environment fiber counts",
+            voxels * (28 * 9 + 8 * opts.environment_directions as u64),
+        ));
+    }
     if opts.shadow_model == ShadowModel::Traced {
         // Capsules and their cell lists.
         items.push(("traced segment grid", segments * 64));
