@@ -56,8 +56,8 @@ def _example(name: str) -> dict[str, Any]:
         return json.load(f)
 
 
-def _scene(d: dict[str, Any]) -> Scene:
-    return Scene.from_dict(d, base_dir=os.path.abspath(EXAMPLES))
+def _scene(d: dict[str, Any], allow_outside: bool = False) -> Scene:
+    return Scene.from_dict(d, base_dir=os.path.abspath(EXAMPLES), allow_outside=allow_outside)
 
 
 def _sphere_obj(path: str, center: list[float], radius: float, rings: int = 100, sectors: int = 100) -> None:
@@ -225,7 +225,8 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
     with tempfile.TemporaryDirectory(prefix="hairshade_bench_") as mesh_dir:
         _sphere_obj(os.path.join(mesh_dir, "head.obj"), sphere["center"], sphere["radius"])
         meshed["meshes"] = [{"type": "obj", "file": os.path.join(mesh_dir, "head.obj"), "albedo": sphere["albedo"]}]
-        s_meshed = _scene(meshed)  # the triangles are read here
+        # the triangles are read here, from the benchmark's own temporary folder
+        s_meshed = _scene(meshed, allow_outside=True)
     close = copy.deepcopy(head)
     close["camera"]["fov"] = 10.0  # a close-up: most of the hair off screen
     s_close = _scene(close)
