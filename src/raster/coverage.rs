@@ -165,6 +165,22 @@ impl RowSpan {
     }
 }
 
+/// The parameter along segment `s` of the centre-line point nearest a
+/// sample whose unclamped parameter is `t_raw`, or None where the sample
+/// belongs to a neighbouring segment: butt joints (each sample belongs to
+/// one segment of a polyline, no double coverage at vertices) and a round
+/// tip at the strand's end. A degenerate segment (`has_length` false)
+/// keeps every sample, at t = 0.
+#[inline]
+pub fn on_stretch(s: &Segment, t_raw: f32, has_length: bool) -> Option<f32> {
+    let inside = if s.last {
+        t_raw >= 0.0
+    } else {
+        (0.0..1.0).contains(&t_raw)
+    };
+    (inside || !has_length).then(|| t_raw.clamp(0.0, 1.0))
+}
+
 /// Coverage of pixel center `p` by segment `s`, and the screen parameter t.
 #[inline]
 pub fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
@@ -175,17 +191,7 @@ pub fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
     } else {
         0.0
     };
-    // Butt joints: each pixel belongs to one segment of a polyline (no
-    // double coverage at vertices); the strand's tip gets a rounded end.
-    let inside = if s.last {
-        t_raw >= 0.0
-    } else {
-        (0.0..1.0).contains(&t_raw)
-    };
-    if !inside && len2 > 0.0 {
-        return None;
-    }
-    let t = t_raw.clamp(0.0, 1.0);
+    let t = on_stretch(s, t_raw, len2 > 0.0)?;
     let c = [s.a[0] + t * d[0], s.a[1] + t * d[1]];
     let dist = ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt();
     let mut w = s.wa + (s.wb - s.wa) * t;

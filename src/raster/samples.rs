@@ -20,6 +20,7 @@
 //! noise falls as 1/√n.
 
 use super::bin::TILE;
+use super::coverage::on_stretch;
 use super::setup::Segment;
 
 /// Inclusive range of the number of coverage samples per pixel.
@@ -99,15 +100,9 @@ impl SamplePoints {
 #[inline]
 pub fn strand_covers(s: &Segment, d: [f32; 2], inv_len2: f32, p: [f32; 2]) -> bool {
     let t_raw = ((p[0] - s.a[0]) * d[0] + (p[1] - s.a[1]) * d[1]) * inv_len2;
-    let inside = if s.last {
-        t_raw >= 0.0
-    } else {
-        (0.0..1.0).contains(&t_raw)
-    };
-    if !inside && inv_len2 > 0.0 {
+    let Some(t) = on_stretch(s, t_raw, inv_len2 > 0.0) else {
         return false;
-    }
-    let t = t_raw.clamp(0.0, 1.0);
+    };
     let (cx, cy) = (s.a[0] + t * d[0] - p[0], s.a[1] + t * d[1] - p[1]);
     let half = 0.5 * (s.wa + (s.wb - s.wa) * t);
     cx * cx + cy * cy <= half * half

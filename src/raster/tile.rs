@@ -217,13 +217,12 @@ impl<'a> Tile<'a> {
         t: Vec3,
         fiber: Fiber,
         color: Option<Vec3>,
-        covers: impl FnMut([f32; 2]) -> bool,
+        mut covers: impl FnMut([f32; 2]) -> bool,
     ) {
         let Some((pts, buf)) = &mut self.samples else {
             return;
         };
         let id = self.pending.k.len() as u32;
-        let mut covers = covers;
         let pix = pts.pixel(k);
         if buf.cover(k, depth, id, |s| covers(pix[s])) {
             self.fragments += 1;
@@ -401,12 +400,13 @@ impl<'a> Tile<'a> {
         let Some((_, buf)) = &self.samples else {
             return;
         };
+        if self.ctx.opts.vertex_shading {
+            // every fragment already carries its interpolated radiance
+            return;
+        }
         let p = &mut self.pending;
         let mut counts = vec![0u32; p.k.len()];
         buf.counts(&mut counts);
-        if self.ctx.opts.vertex_shading {
-            return;
-        }
         let visible: Vec<usize> = (0..counts.len()).filter(|&i| counts[i] > 0).collect();
         let eye = self.ctx.view.eye;
         if self.ctx.shader.batches() {
