@@ -6,7 +6,7 @@
 //! produces 0 (value, pdf and sample weight; a sampled `wo` of 0) without
 //! touching its neighbours.
 
-use crate::fiber::chiang::{ChiangHair, I0Mode};
+use crate::fiber::chiang::{ChiangFarTable, ChiangHair, I0Mode};
 use crate::fiber::deon::DEonHair;
 use crate::fiber::frame::{normalized, Vec3};
 use crate::fiber::karis::{KarisHair, KarisInputs, KarisLobes, LobeVisitor, Transmittance};
@@ -297,6 +297,9 @@ pub trait Precision: Real {
     );
     /// [`chiang_eval`] in this precision.
     fn chiang_eval(m: &ChiangHair<Self>, wi: &[Self], wo: &[Self], out: &mut [Self]);
+    /// [`ChiangFarTable::eval`] of every pair (out `3N`) in this precision
+    /// (the table is `f32`: `f64` directions are rounded to it).
+    fn chiang_far_table_eval(t: &ChiangFarTable, wi: &[Self], wo: &[Self], out: &mut [Self]);
 }
 
 impl Precision for f32 {
@@ -321,6 +324,11 @@ impl Precision for f32 {
             map_pairs_rgb(wi, wo, out, |a, b| m.eval(a, b))
         }
     }
+
+    /// The vector kernel.
+    fn chiang_far_table_eval(t: &ChiangFarTable, wi: &[f32], wo: &[f32], out: &mut [f32]) {
+        chiang_far_table_simd(t, wi, wo, out, crate::simd::Level::detect())
+    }
 }
 
 impl Precision for f64 {
@@ -334,6 +342,14 @@ impl Precision for f64 {
 
     fn chiang_eval(m: &ChiangHair<f64>, wi: &[f64], wo: &[f64], out: &mut [f64]) {
         map_pairs_rgb(wi, wo, out, |a, b| m.eval(a, b))
+    }
+
+    /// The scalar look-up, directions rounded to `f32` once normalized.
+    fn chiang_far_table_eval(t: &ChiangFarTable, wi: &[f64], wo: &[f64], out: &mut [f64]) {
+        map_pairs_rgb(wi, wo, out, |a, b| {
+            t.eval(&a.map(|x| x as f32), &b.map(|x| x as f32))
+                .map(f64::from)
+        })
     }
 }
 
@@ -434,6 +450,37 @@ pub fn chiang_eval_simd(
             .for_each(|(k, part)| {
                 if !stopped() {
                     crate::fiber::chiang::simd::eval_range(m, wi, wo, k * chunk, part, level)
+                }
+            })
+    });
+}
+
+/// [`ChiangFarTable::eval`] for `f32` on the vector kernel at `level` (at
+/// most [`Level::detect`](crate::simd::Level::detect)'s), in parallel on
+/// [`pool`]; degenerate pairs give 0.
+pub fn chiang_far_table_simd(
+    t: &ChiangFarTable,
+    wi: &[f32],
+    wo: &[f32],
+    out: &mut [f32],
+    level: crate::simd::Level,
+) {
+    let n = pair_count(wi, wo);
+    assert_eq!(out.len(), 3 * n);
+    let level = level.min_with(crate::simd::Level::detect());
+    pool().install(|| {
+        let chunk = chunk_for(n).next_multiple_of(16);
+        out.par_chunks_mut(3 * chunk)
+            .enumerate()
+            .for_each(|(k, part)| {
+                if !stopped() {
+                    crate::fiber::chiang::table_eval_range(
+                        t,
+                        crate::fiber::chiang::Pairs::Local(wi, wo),
+                        k * chunk,
+                        part,
+                        level,
+                    )
                 }
             })
     });

@@ -53,8 +53,10 @@ mod far;
 mod sample;
 pub(crate) mod simd;
 mod table;
+mod table_simd;
 pub use far::{composite_gamma_rule, far_field_nodes};
 pub use table::{ChiangFarTable, TableSize};
+pub use table_simd::{eval_range as table_eval_range, Pairs};
 
 use crate::fiber::frame::{azimuth, offset, sin_cos_theta, Vec3};
 use crate::fiber::lobes::{deon_mp, deon_mp_mitsuba};

@@ -9,7 +9,7 @@ use super::convert::{
 };
 use crate::batch::{
     chiang_eval, deon_eval, dir_at, karis_eval, karis_eval_env, map_pairs_rgb, map_pairs_scalar,
-    par_map, sample_batch, SampleOut,
+    par_map, sample_batch, Precision, SampleOut,
 };
 use crate::fiber::chiang::{azimuthal_scale, longitudinal_variance};
 use crate::fiber::chiang::{ChiangFarTable, TableSize};
@@ -78,9 +78,7 @@ impl PyChiangHair {
             match op {
                 ChiangOp::Eval => compute(py, 3 * n, |o| chiang_eval(m, wi, wo, o)),
                 ChiangOp::EvalFar(None) => compute(py, 3 * n, |o| map_pairs_rgb(wi, wo, o, |a, b| m.eval_far(a, b))),
-                ChiangOp::EvalFar(Some(t)) => compute(py, 3 * n, |o| {
-                    map_pairs_rgb(wi, wo, o, |a, b| t.eval(&to_f32(a), &to_f32(b)).map(from_f32))
-                }),
+                ChiangOp::EvalFar(Some(t)) => compute(py, 3 * n, |o| Precision::chiang_far_table_eval(t, wi, wo, o)),
                 ChiangOp::EvalFarLobes(table) => compute(py, 12 * n, |o| {
                     par_map(o, |i| match (dir_at(wi, i), dir_at(wo, i)) {
                         (Some(a), Some(b)) => {

@@ -1,8 +1,9 @@
 //! Shading: the radiance a hair fragment or vertex scatters towards the
 //! eye from every light (with its shadow-map visibility) and the
-//! environment, and the diffuse shading of opaque surfaces. KarisHair runs
-//! on its vector kernel in batches ([`Shader::shade_serial`]); the other
-//! models per point ([`Shader::shade`]).
+//! environment, and the diffuse shading of opaque surfaces. KarisHair and
+//! ChiangHair's tabulated far field run on their vector kernels in batches
+//! ([`Shader::shade_serial`]); dual scattering and DEonHair per point
+//! ([`Shader::shade`]).
 
 use super::density::FiberCount;
 use super::scene::{HairShading, MultipleScattering, RenderOptions, Scene};
@@ -54,6 +55,19 @@ impl Fiber {
 struct CullTally {
     count: u64,
     max: f32,
+}
+
+/// Per-point buffers of [`Shader::shade_serial`]: flat `(N, 3)` tangents,
+/// view and light directions and kernel output, and per light the
+/// visibility and irradiance.
+struct Batch {
+    level: crate::simd::Level,
+    t: Vec<f32>,
+    v: Vec<f32>,
+    f: Vec<f32>,
+    l: Vec<f32>,
+    shadow: Vec<f32>,
+    irradiance: Vec<Vec3>,
 }
 
 /// Everything hair shading needs, prepared once per render.
@@ -164,9 +178,14 @@ impl<'a> Shader<'a> {
     }
 
     /// Whether [`Self::shade_batch`] and [`Self::shade_serial`] serve this
-    /// model (KarisHair on the vector kernel).
+    /// model: KarisHair and ChiangHair's tabulated far field (without dual
+    /// scattering) on their vector kernels.
     pub fn batches(&self) -> bool {
-        matches!(&self.hair, HairShading::Karis(k) if !k.fast_asin())
+        match &self.hair {
+            HairShading::Karis(k) => !k.fast_asin(),
+            HairShading::ChiangFar(_) => self.dual.is_none(),
+            HairShading::DEon(_) => false,
+        }
     }
 
     /// [`Self::shade`] for many points at once, in parallel chunks of
@@ -194,11 +213,11 @@ impl<'a> Shader<'a> {
         Some(out)
     }
 
-    /// [`Self::shade`] for `points` with `tangents`, on this thread, for
-    /// KarisHair (requires [`Self::batches`]): per light, the directions,
-    /// irradiance and shadow-map visibility per point, then one call of the
-    /// vector kernel over all points; the environment likewise. Equal to
-    /// `shade` up to the vector kernel's rounding.
+    /// [`Self::shade`] for `points` with `tangents`, on this thread
+    /// (requires [`Self::batches`]): per light, the directions, irradiance
+    /// and visibility per point, then one call of the model's vector kernel
+    /// over the points the light reaches; the environment likewise. Equal
+    /// to `shade` up to the vector kernel's rounding.
     pub fn shade_serial(
         &self,
         points: &[Vec3],
@@ -207,82 +226,108 @@ impl<'a> Shader<'a> {
         eye: Vec3,
         out: &mut [Vec3],
     ) {
-        use crate::fiber::karis::simd::eval_range;
-        use crate::fiber::karis::KarisInputs;
-        let HairShading::Karis(k) = &self.hair else {
-            unreachable!("shade_serial without a KarisHair model");
-        };
+        assert!(self.batches(), "shade_serial without a vector kernel");
         let n = points.len();
-        let level = crate::simd::Level::detect();
-        let t: Vec<f32> = tangents.iter().flat_map(|x| x.to_array()).collect();
-        let v: Vec<f32> = points
-            .iter()
-            .flat_map(|p| (eye - *p).normalize_or_zero().to_array())
-            .collect();
+        let mut b = Batch {
+            level: crate::simd::Level::detect(),
+            t: tangents.iter().flat_map(|x| x.to_array()).collect(),
+            v: points
+                .iter()
+                .flat_map(|p| (eye - *p).normalize_or_zero().to_array())
+                .collect(),
+            f: vec![0.0f32; 3 * n],
+            l: vec![0.0f32; 3 * n],
+            shadow: vec![0.0f32; n],
+            irradiance: vec![Vec3::ZERO; n],
+        };
         out.fill(Vec3::ZERO);
         let mut tally = CullTally::default();
-        let mut f = vec![0.0f32; 3 * n];
-        let mut l = vec![0.0f32; 3 * n];
-        let mut shadow = vec![0.0f32; n];
-        let mut irradiance = vec![Vec3::ZERO; n];
         for (index, (light, sm)) in self.scene.lights.iter().zip(self.shadows).enumerate() {
             // per point: direction, irradiance, visibility (0 where culled)
             for (i, p) in points.iter().enumerate() {
                 let (li, e) = light.incident(*p);
-                l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
-                (irradiance[i], shadow[i]) = if self.culls(e, &mut tally) {
+                b.l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
+                (b.irradiance[i], b.shadow[i]) = if self.culls(e, &mut tally) {
                     (Vec3::ZERO, 0.0)
                 } else {
-                    let (ti, vi) = (tangents[i], Vec3::from_slice(&v[3 * i..]));
+                    let (ti, vi) = (tangents[i], Vec3::from_slice(&b.v[3 * i..]));
                     (e, self.hair_visibility(index, sm, *p, ti, vi, fibers[i]))
                 };
             }
-            // The kernel runs on the points the light reaches (culled and
-            // fully shadowed ones add nothing); lanes are independent, so
-            // the values do not depend on which points share a batch.
-            let active: Vec<usize> = (0..n).filter(|&i| shadow[i] > 0.0).collect();
-            if active.is_empty() {
-                continue;
-            }
-            let (la, va, ta, sa);
-            let inp = if active.len() == n {
-                KarisInputs {
-                    shadow: &shadow,
-                    ..KarisInputs::directions(&l, &v, &t)
-                }
-            } else {
-                let pick3 = |a: &[f32]| -> Vec<f32> {
-                    active
-                        .iter()
-                        .flat_map(|&i| [a[3 * i], a[3 * i + 1], a[3 * i + 2]])
-                        .collect()
-                };
-                (la, va, ta) = (pick3(&l), pick3(&v), pick3(&t));
-                sa = active.iter().map(|&i| shadow[i]).collect::<Vec<f32>>();
-                KarisInputs {
-                    shadow: &sa,
-                    ..KarisInputs::directions(&la, &va, &ta)
-                }
-            };
-            let fa = &mut f[..3 * active.len()];
-            eval_range::<false>(k, &inp, 0, fa, level);
-            for (j, &i) in active.iter().enumerate() {
-                out[i] += Vec3::from_slice(&fa[3 * j..]) * irradiance[i] * shadow[i];
-            }
+            self.add_light(&mut b, out);
         }
         self.flush(tally);
+        if let Some(env) = &self.env_lights {
+            // The environment's directions (ChiangHair), each as a light:
+            // what the fibers on the way let through (see `env_light`).
+            for (k, light) in env.lights.iter().enumerate() {
+                for (i, p) in points.iter().enumerate() {
+                    let (li, e) = light.incident(*p);
+                    let (count, clear) = env.count(k, *p, fibers[i].radius, tangents[i], li);
+                    b.l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
+                    (b.irradiance[i], b.shadow[i]) = (e, clear * (-count).exp());
+                }
+                self.add_light(&mut b, out);
+            }
+        }
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             // L = the fake normal n = normalize(V − T(T·V)); π · SH(n)⁺ · f
+            use crate::fiber::karis::{simd::eval_range, KarisInputs};
             for i in 0..n {
-                let (vi, ti) = (Vec3::from_slice(&v[3 * i..]), tangents[i]);
+                let (vi, ti) = (Vec3::from_slice(&b.v[3 * i..]), tangents[i]);
                 let nn = (vi - ti * ti.dot(vi)).normalize_or_zero();
-                l[3 * i..3 * i + 3].copy_from_slice(&nn.to_array());
-                irradiance[i] = Vec3::from(sh9_eval(&env.sh, &nn.to_array())).max(Vec3::ZERO);
+                b.l[3 * i..3 * i + 3].copy_from_slice(&nn.to_array());
+                b.irradiance[i] = Vec3::from(sh9_eval(&env.sh, &nn.to_array())).max(Vec3::ZERO);
             }
-            eval_range::<false>(m, &KarisInputs::directions(&l, &v, &t), 0, &mut f, level);
+            let inp = KarisInputs::directions(&b.l, &b.v, &b.t);
+            eval_range::<false>(m, &inp, 0, &mut b.f, b.level);
             for (i, o) in out.iter_mut().enumerate() {
-                *o += Vec3::from_slice(&f[3 * i..]) * irradiance[i] * std::f32::consts::PI;
+                *o += Vec3::from_slice(&b.f[3 * i..]) * b.irradiance[i] * std::f32::consts::PI;
             }
+        }
+    }
+
+    /// Adds one light's `f · E · visibility` to `out`: the model's vector
+    /// kernel over the points the light reaches (culled and fully shadowed
+    /// ones add nothing; lanes are independent, so the values do not depend
+    /// on which points share a batch).
+    fn add_light(&self, b: &mut Batch, out: &mut [Vec3]) {
+        use crate::fiber::chiang::{table_eval_range, Pairs};
+        use crate::fiber::karis::{simd::eval_range, KarisInputs};
+        let n = out.len();
+        let active: Vec<usize> = (0..n).filter(|&i| b.shadow[i] > 0.0).collect();
+        if active.is_empty() {
+            return;
+        }
+        let picked;
+        let (l, v, t, shadow) = if active.len() == n {
+            (&b.l[..], &b.v[..], &b.t[..], &b.shadow[..])
+        } else {
+            let pick3 = |a: &[f32]| -> Vec<f32> {
+                active
+                    .iter()
+                    .flat_map(|&i| [a[3 * i], a[3 * i + 1], a[3 * i + 2]])
+                    .collect()
+            };
+            let s: Vec<f32> = active.iter().map(|&i| b.shadow[i]).collect();
+            picked = (pick3(&b.l), pick3(&b.v), pick3(&b.t), s);
+            (&picked.0[..], &picked.1[..], &picked.2[..], &picked.3[..])
+        };
+        let fa = &mut b.f[..3 * active.len()];
+        match &self.hair {
+            HairShading::Karis(k) => {
+                let inp = KarisInputs {
+                    shadow,
+                    ..KarisInputs::directions(l, v, t)
+                };
+                eval_range::<false>(k, &inp, 0, fa, b.level)
+            }
+            // Mitsuba's convention: wi towards the viewer, wo towards the light.
+            HairShading::ChiangFar(c) => table_eval_range(c, Pairs::World(v, l, t), 0, fa, b.level),
+            HairShading::DEon(_) => unreachable!("DEonHair has no batch kernel"),
+        }
+        for (j, &i) in active.iter().enumerate() {
+            out[i] += Vec3::from_slice(&fa[3 * j..]) * b.irradiance[i] * b.shadow[i];
         }
     }
 
@@ -639,9 +684,31 @@ mod tests {
     ///    the MS block on: equal to 1e-4 relative + 1e-7 absolute (the
     ///    vector kernel's rounding; `fiber::karis::simd` test 1 bounds it
     ///    against f64). Shading a subset of the vertices (frustum culling)
-    ///    gives the same bits for them.
+    ///    gives the same bits for them. The same for ChiangHair's tabulated
+    ///    far field (`fiber::chiang::table_simd` test 1: 1.1e-5 relative
+    ///    against the scalar look-up).
     #[test]
     fn t01_batched_vertex_shading_matches_per_point_shading() {
+        let karis = HairShading::Karis(
+            KarisParams {
+                scatter: 0.4,
+                ..Default::default()
+            }
+            .build()
+            .unwrap(),
+        );
+        let m: crate::fiber::ChiangHair<f64> =
+            crate::fiber::ChiangParams::default().build().unwrap();
+        let size = crate::fiber::chiang::TableSize::for_scale(m.logistic_scale());
+        let chiang = HairShading::ChiangFar(Arc::new(crate::fiber::chiang::ChiangFarTable::new(
+            &m, size,
+        )));
+        for hair in [karis, chiang] {
+            batched_matches_per_point(hair);
+        }
+    }
+
+    fn batched_matches_per_point(hair: HairShading) {
         let mut points = Vec::new();
         let mut offsets = vec![0u32];
         for s in 0..40 {
@@ -690,14 +757,7 @@ mod tests {
             cards: Cards::default(),
             spheres: Vec::new(),
             triangles: Vec::new(),
-            hair: HairShading::Karis(
-                KarisParams {
-                    scatter: 0.4,
-                    ..Default::default()
-                }
-                .build()
-                .unwrap(),
-            ),
+            hair,
         };
         let opts = RenderOptions::default();
         let bounds = scene_bounds(&scene);

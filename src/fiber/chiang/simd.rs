@@ -24,7 +24,7 @@ use crate::simd::{F16, F8};
 
 /// A model's constants, copied for the kernel.
 #[derive(Clone, Copy)]
-struct Consts {
+pub(super) struct Consts {
     eta: f32,
     inv_eta: f32,
     eta2: f32,
@@ -42,7 +42,7 @@ struct Consts {
 }
 
 impl Consts {
-    fn new(m: &ChiangHair<f32>) -> Self {
+    pub(super) fn new(m: &ChiangHair<f32>) -> Self {
         let v_min = crate::fiber::lobes::V_MIN;
         let kappa: [f64; 4] = m.v.map(|v| 1.0 / (v as f64).max(v_min));
         let norm = std::array::from_fn(|p| {
@@ -68,7 +68,7 @@ impl Consts {
 
 /// `e^{−κ/2 |d|²} i0e(c)` times the lobe's normalization: d'Eon's M_p.
 #[inline(always)]
-fn m_p<V: Lanes>(k: &Consts, p: usize, sin_i: V, cos_i: V, sin_o: V, cos_o: V) -> V {
+pub(super) fn m_p<V: Lanes>(k: &Consts, p: usize, sin_i: V, cos_i: V, sin_o: V, cos_o: V) -> V {
     // θi tilted by the cuticle scales: sin(θi + t), |cos(θi + t)|.
     let (st, ct) = (k.sin_tilt[p], k.cos_tilt[p]);
     let (sin_ip, cos_ip) = if p == 3 {
