@@ -11,7 +11,8 @@ model's converged f64 reference:
 - DEonHair with ``h_samples`` in {4, 8, 16, 32, 64} against its converged
   quadrature;
 - ChiangHair near and far field against their own f64 evaluation (the f32
-  rounding; f64 rows have error 0 by definition);
+  rounding; f64 rows have error 0 by definition); its far-field table
+  (``eval_far(fast=True)``) against the converged f64 far field;
 - Mitsuba's ``hair`` against ChiangHair's f64 near field with Mitsuba's I0
   (float32 arithmetic; the exact-I0 difference is reported by
   ``hairshade validate``), timed the fastest honest ways, each calling
@@ -84,6 +85,9 @@ def bsdf_runtime_vs_error(n: int = 1 << 20, repeats: int = 3, fast: bool = False
         m = max(256, n >> 6)
         add("ChiangHair", "far field", prec, lambda c=c, a=a[:m], b=b[:m]: c.eval_far(a, b), m,
             _rel_l2(c.eval_far(L.astype(dt), V.astype(dt)).astype(np.float64), cf_ref))
+        # the table of eval_far(fast=True) (what the renderer shades with), built before timing
+        add("ChiangHair", "far field table", prec, lambda c=c, a=a, b=b: c.eval_far(a, b, fast=True), n,
+            _rel_l2(c.eval_far(L.astype(dt), V.astype(dt), fast=True).astype(np.float64), cf_ref))
     if not fast:
         for hs_n in (4, 8, 16, 32, 64, None):
             d = DEonHair(base_color=color, roughness=ROUGHNESS, h_samples=hs_n)

@@ -22,6 +22,7 @@ def render(
     height: int | None = None,
     transparency: str | None = None,
     layers: int | None = None,
+    samples: int | None = None,
     shading: str | None = None,
     frustum_culling: bool | None = None,
     backface_culling: bool | None = None,
@@ -30,6 +31,7 @@ def render(
     reuse_shadow_maps: bool | None = None,
     light_cull_threshold: float | None = None,
     multiple_scattering: str | None = None,
+    lod: float | str | None = None,
     progress: bool | None = None,
     return_stats: Literal[False] = False,
 ) -> Image: ...
@@ -42,6 +44,7 @@ def render(
     height: int | None = None,
     transparency: str | None = None,
     layers: int | None = None,
+    samples: int | None = None,
     shading: str | None = None,
     frustum_culling: bool | None = None,
     backface_culling: bool | None = None,
@@ -50,6 +53,7 @@ def render(
     reuse_shadow_maps: bool | None = None,
     light_cull_threshold: float | None = None,
     multiple_scattering: str | None = None,
+    lod: float | str | None = None,
     progress: bool | None = None,
     *,
     return_stats: Literal[True],
@@ -63,6 +67,7 @@ def render(
     height: int | None = None,
     transparency: str | None = None,
     layers: int | None = None,
+    samples: int | None = None,
     shading: str | None = None,
     frustum_culling: bool | None = None,
     backface_culling: bool | None = None,
@@ -71,6 +76,7 @@ def render(
     reuse_shadow_maps: bool | None = None,
     light_cull_threshold: float | None = None,
     multiple_scattering: str | None = None,
+    lod: float | str | None = None,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> Image | tuple[Image, dict[str, Any]]: ...
@@ -91,6 +97,7 @@ def render(
     reuse_shadow_maps: bool | None = None,
     light_cull_threshold: float | None = None,
     multiple_scattering: str | None = None,
+    lod: float | str | None = None,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> Image | tuple[Image, dict[str, Any]]:
@@ -132,7 +139,13 @@ def render(
     - ``multiple_scattering`` ("auto", default: KarisHair's own term for
       KarisHair, none for the other models; "none"; "karis", KarisHair only;
       "dual", ChiangHair only: dual scattering through the fiber density
-      grid, see the scene format's ``render.multiple_scattering``).
+      grid, see the scene format's ``render.multiple_scattering``);
+    - ``lod`` (1, all strands): the fraction of the strands drawn, in
+      (0, 1], each drawn ``1/lod`` times as wide so that the hair's area
+      and opacity are kept (a fixed pseudo-random subset, nested as the
+      fraction grows), or "auto": strands thinner than 2 pixels on screen
+      are drawn as fewer, wider ones (at least 1/8 of them); the stats
+      report ``lod_fraction`` and ``strands_drawn``.
 
     Ranges are checked by the renderer; a ``ValueError`` names the option.
     ``progress``: a progress bar (tqdm's when installed; default: where it
@@ -152,7 +165,7 @@ def render(
         transparency=transparency, layers=layers, samples=samples, shading=shading, frustum_culling=frustum_culling,
         backface_culling=backface_culling, opaque_culling=opaque_culling, skip_unused=skip_unused,
         reuse_shadow_maps=reuse_shadow_maps, light_cull_threshold=light_cull_threshold,
-        multiple_scattering=multiple_scattering,
+        multiple_scattering=multiple_scattering, lod=lod,
     )
     options.update({k: v for k, v in overrides.items() if v is not None})
     with Bar(0, "render", unit="tile", enabled=progress) as bar:

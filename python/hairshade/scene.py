@@ -74,12 +74,15 @@ A scene file::
   ``render.environment_directions`` directions (8 to 1024, default 32), each
   dimmed by the fibers on its way (a density grid at a quarter of
   ``density_resolution``; dual scattering applies to it as to a light).
+- ``render.lod``: the fraction of the strands drawn, in (0, 1] (default 1),
+  each drawn wider by its inverse, or ``auto`` (from the strands' width on
+  screen); see :func:`hairshade.render`.
 - ``render`` takes every render option of :func:`hairshade.render`
   (``transparency``, ``layers``, ``samples``, ``shadow_map_size``, ``shadow_model``,
   ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
   culling switches, ``light_cull_threshold``, ``density_resolution``,
   ``multiple_scattering``, ``dual_forward_density``,
-  ``dual_back_density``, ``environment_directions``); their types and ranges are
+  ``dual_back_density``, ``environment_directions``, ``lod``); their types and ranges are
   checked by the renderer itself (``hairshade._native.render_options``), the
   one place they are defined.
 - Every field is checked on load; an error names the file, the field's path

@@ -6,6 +6,7 @@
 
 use super::convert::{run_polling, slice, to_numpy, without_gil};
 use super::models::{PyChiangHair, PyDEonHair, PyKarisHair};
+use crate::raster::lod::Lod;
 use crate::raster::scene::{
     AlphaTexture, Camera, Cards, Environment, HairShading, Light, MultipleScattering, OpaqueTri,
     RenderOptions, Scene, Sphere, Strands, Transparency,
@@ -121,6 +122,26 @@ impl<'py> OptionReader<'_, 'py> {
             _ => Err(err(
                 key,
                 format!("expected 3 finite numbers >= 0, got {}", repr(&v)),
+            )),
+        }
+    }
+
+    /// `"auto"` or a number in (0, 1]: the strand level of detail.
+    fn lod(&mut self, key: &'static str) -> PyResult<Lod> {
+        let Some(v) = self.get(key)? else {
+            return Ok(Lod::default());
+        };
+        if v.is_instance_of::<PyString>() && v.extract::<String>()? == "auto" {
+            return Ok(Lod::Auto);
+        }
+        match number(&v) {
+            Some(x) if x > 0.0 && x <= 1.0 && (x as f32) > 0.0 => Ok(Lod::Fraction(x as f32)),
+            _ => Err(err(
+                key,
+                format!(
+                    "expected 'auto' or a fraction of the strands in (0, 1], got {}",
+                    repr(&v)
+                ),
             )),
         }
     }
@@ -245,6 +266,13 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
             e0 as i64,
             e1 as i64,
         )? as usize,
+        lod: r.lod("lod")?,
+        hair_cull_transmittance: r.num(
+            "hair_cull_transmittance",
+            def.hair_cull_transmittance as f64,
+            0.0,
+            1.0,
+        )? as f32,
     };
     r.finish()?;
     Ok((opts, (layers, samples)))
@@ -299,6 +327,11 @@ fn options_dict<'py>(
     d.set_item("dual_forward_density", o.dual_forward_density as f64)?;
     d.set_item("dual_back_density", o.dual_back_density as f64)?;
     d.set_item("environment_directions", o.environment_directions)?;
+    d.set_item("hair_cull_transmittance", o.hair_cull_transmittance as f64)?;
+    match o.lod {
+        Lod::Auto => d.set_item("lod", "auto")?,
+        Lod::Fraction(f) => d.set_item("lod", f as f64)?,
+    }
     Ok(d)
 }
 
@@ -619,11 +652,14 @@ pub fn render<'py>(
     d.set_item("fragments", stats.fragments)?;
     d.set_item("non_finite_pixels", stats.non_finite_pixels)?;
     d.set_item("culled_behind_opaque", stats.culled_behind_opaque)?;
+    d.set_item("culled_behind_hair", stats.culled_behind_hair)?;
     d.set_item("lights_culled", stats.lights_culled)?;
     d.set_item("light_cull_max_skipped", stats.light_cull_max_skipped)?;
     d.set_item("shadow_ms", stats.shadow_ms)?;
     d.set_item("shadow_maps_reused", stats.shadow_maps_reused)?;
     d.set_item("shadow_maps_skipped", stats.shadow_maps_skipped)?;
+    d.set_item("lod_fraction", stats.lod_fraction as f64)?;
+    d.set_item("strands_drawn", stats.strands_drawn)?;
     d.set_item("setup_ms", stats.setup_ms)?;
     d.set_item("tiles_ms", stats.tiles_ms)?;
     d.set_item("total_ms", stats.total_ms)?;

@@ -8,8 +8,10 @@
 //! - opaque culling: hair behind a tile's farthest opaque surface;
 //! - no shadow map for a light that light culling skips everywhere.
 //!
-//! Light culling itself (a bounded contribution below a threshold) is
-//! decided per shading point in [`super::shade`].
+//! Two are approximate, with a bound: light culling (a bounded
+//! contribution below a threshold), decided per shading point in
+//! [`super::shade`], and hair culling ([`BehindHair`]): hair behind a
+//! pixel's hair once that is nearly opaque.
 
 use super::bin::{segment_tiles, TileGrid};
 use super::scene::{Light, OpaqueTri, RenderOptions, Scene};
@@ -45,6 +47,104 @@ impl BehindOpaque {
     #[inline]
     pub fn hides(&self, z_min: f32) -> bool {
         self.far.is_some_and(|far| z_min >= far)
+    }
+}
+
+/// Hair culling in one tile (after RE4's strand renderer, which draws a
+/// tile's hair front to back and stops once the tile is opaque): per
+/// pixel, the product `T` of `1 − α` over the hair fragments kept so far
+/// and their farthest depth `z`. Once `T` falls below the cutoff `ε`, the
+/// pixel is saturated at `z_sat = z`: every kept fragment lies at or in
+/// front of `z_sat`, so the exact composite's transmittance there is at
+/// most `T < ε`, and all the hair behind `z_sat` together adds at most
+/// `ε · L_max` (its largest radiance). Fragments behind `z_sat` are skipped.
+/// This holds in any drawing order; drawing a tile's segments in order of
+/// their nearest depth (what the tile does when culling is on) makes
+/// `z_sat` tight, and once every pixel is saturated or behind opaque
+/// geometry, a segment whose nearest depth is behind all of them is
+/// skipped whole, and so are the ones after it.
+#[derive(Debug, Clone)]
+pub struct BehindHair {
+    /// ε; 0: off (nothing is ever skipped).
+    cutoff: f32,
+    transmittance: Vec<f32>,
+    z_far: Vec<f32>,
+    /// Depth behind which pixel k is hidden: `z_sat`, or the opaque depth.
+    z_hidden: Vec<f32>,
+    /// In-image pixels not yet hidden (by hair or opaque geometry).
+    open: usize,
+    /// The farthest `z_hidden` over the tile once `open` is 0, else ∞.
+    tile_far: f32,
+    pixels: Vec<usize>,
+}
+
+impl BehindHair {
+    /// For the tile's in-image `pixels` over the opaque depth per pixel.
+    pub fn new(cutoff: f32, pixels: Vec<usize>, opaque_depth: &[f32]) -> Self {
+        let n = opaque_depth.len();
+        let open = pixels
+            .iter()
+            .filter(|&&k| opaque_depth[k] == f32::INFINITY)
+            .count();
+        let mut c = Self {
+            cutoff,
+            transmittance: vec![1.0; n],
+            z_far: vec![0.0; n],
+            z_hidden: opaque_depth.to_vec(),
+            open,
+            tile_far: f32::INFINITY,
+            pixels,
+        };
+        c.update_tile();
+        c
+    }
+
+    /// Whether culling is on.
+    #[inline]
+    pub fn on(&self) -> bool {
+        self.cutoff > 0.0
+    }
+
+    /// Whether a fragment at pixel `k` and `depth` is hidden.
+    #[inline]
+    pub fn hides(&self, k: usize, depth: f32) -> bool {
+        depth > self.z_hidden[k]
+    }
+
+    /// Whether a primitive whose nearest depth is `z_min` is hidden at
+    /// every pixel of the tile (only once every pixel is hidden).
+    #[inline]
+    pub fn hides_tile(&self, z_min: f32) -> bool {
+        z_min > self.tile_far
+    }
+
+    /// A kept fragment of coverage `alpha` at pixel `k`, `depth`.
+    #[inline]
+    pub fn add(&mut self, k: usize, depth: f32, alpha: f32) {
+        if !self.on() {
+            return;
+        }
+        let t = self.transmittance[k] * (1.0 - alpha);
+        self.transmittance[k] = t;
+        self.z_far[k] = self.z_far[k].max(depth);
+        if t < self.cutoff && self.z_far[k] < self.z_hidden[k] {
+            let was_open = self.z_hidden[k] == f32::INFINITY;
+            self.z_hidden[k] = self.z_far[k];
+            if was_open {
+                self.open -= 1;
+            }
+            self.update_tile();
+        }
+    }
+
+    fn update_tile(&mut self) {
+        if self.open == 0 && self.on() {
+            self.tile_far = self
+                .pixels
+                .iter()
+                .map(|&k| self.z_hidden[k])
+                .fold(0.0, f32::max);
+        }
     }
 }
 

@@ -3,6 +3,8 @@
 //! Pipeline (after Capcom's RE ENGINE strand renderer and Karis 2016), one
 //! module per stage, run in this order by [`render_with_progress`]:
 //!
+//! 0. [`lod`]: the fraction of the strands drawn, widened to keep their
+//!    area (all of them by default);
 //! 1. [`setup`]: the scene's bounding sphere and [`view`]; world-space
 //!    segments for the shadow maps;
 //! 2. [`shadow`]: one map per shadowed light (first hair and opaque depth
@@ -34,6 +36,7 @@ pub mod coverage;
 pub mod cull;
 pub mod density;
 pub mod env_light;
+pub mod lod;
 pub mod memory;
 pub mod oit;
 pub mod samples;
@@ -71,6 +74,9 @@ pub struct RenderStats {
     /// Segment or card-triangle visits skipped because the tile's opaque
     /// surface is in front of them everywhere.
     pub culled_behind_opaque: u64,
+    /// Hair fragments and segment visits skipped by hair culling (behind
+    /// hair that is nearly opaque; see `cull::BehindHair`).
+    pub culled_behind_hair: u64,
     /// Light evaluations skipped by light culling, and the largest bound of
     /// a skipped contribution (radiance; a pixel changes by at most this
     /// times the number of lights).
@@ -81,6 +87,9 @@ pub struct RenderStats {
     /// Shadowed lights whose map was not built: light culling skips them at
     /// every hair point (see `lights_without_visible_effect`).
     pub shadow_maps_skipped: usize,
+    /// The fraction of the strands drawn ([`lod`]) and their number.
+    pub lod_fraction: f32,
+    pub strands_drawn: usize,
     /// Wall time of the phases, in milliseconds: shadow maps, setup
     /// (per-vertex shading when on, projection, binning), tiles
     /// (rasterization, shading, resolve), and the whole render.
@@ -120,6 +129,21 @@ pub fn render_with_progress(
     let t0 = std::time::Instant::now();
     let ms = |t: std::time::Instant| t.elapsed().as_secs_f64() * 1e3;
     let mut stats = RenderStats::default();
+
+    // 0. Strand level of detail.
+    stats.lod_fraction = lod::fraction(opts.lod, &scene.strands, &scene.camera);
+    let reduced = lod::reduce(&scene.strands, stats.lod_fraction).map(|strands| Scene {
+        camera: scene.camera.clone(),
+        lights: scene.lights.clone(),
+        environment: scene.environment.clone(),
+        strands,
+        cards: scene.cards.clone(),
+        spheres: scene.spheres.clone(),
+        triangles: scene.triangles.clone(),
+        hair: scene.hair.clone(),
+    });
+    let scene = reduced.as_ref().unwrap_or(scene);
+    stats.strands_drawn = scene.strands.strand_count();
 
     // 1. Bounds, view, world-space segments.
     let bounds = setup::scene_bounds(scene);
@@ -346,6 +370,7 @@ fn assemble(
         stats.fragments += tile.fragments;
         stats.non_finite_pixels += tile.non_finite;
         stats.culled_behind_opaque += tile.culled;
+        stats.culled_behind_hair += tile.hair_culled;
         let (tx, ty) = grid.coords(ti);
         for j in 0..TILE {
             let y = ty * TILE + j;

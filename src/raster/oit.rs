@@ -72,18 +72,21 @@ impl Mlab {
 
     /// Front-to-back composite of pixel `px` over `background`.
     pub fn resolve(&self, px: usize, background: Vec3) -> Vec3 {
-        composite(self.layers(px).iter(), background)
+        let (c, t) = composite(self.layers(px).iter());
+        c + background * t
     }
 }
 
-fn composite<'a>(frags: impl Iterator<Item = &'a Fragment>, background: Vec3) -> Vec3 {
+/// Front-to-back composite: the radiance and the transmittance left for
+/// what lies behind.
+fn composite<'a>(frags: impl Iterator<Item = &'a Fragment>) -> (Vec3, f32) {
     let mut c = Vec3::ZERO;
     let mut t = 1.0;
     for f in frags {
         c += f.color * t;
         t *= f.transmittance;
     }
-    c + background * t
+    (c, t)
 }
 
 /// A tile's per-pixel composite in the chosen transparency mode.
@@ -119,11 +122,16 @@ impl Layers {
         }
     }
 
-    /// Pixel `px` composited over `background`.
-    pub fn resolve(&mut self, px: usize, background: Vec3) -> Vec3 {
+    /// Pixel `px` composited: its radiance and the transmittance left for
+    /// what lies behind its hair.
+    pub fn composite(&mut self, px: usize) -> (Vec3, f32) {
         match self {
-            Layers::Mlab(m) => m.resolve(px, background),
-            Layers::Sorted(lists) => resolve_sorted(&mut lists[px], background),
+            Layers::Mlab(m) => composite(m.layers(px).iter()),
+            Layers::Sorted(lists) => {
+                let frags = &mut lists[px];
+                frags.sort_by(|a, b| a.depth.total_cmp(&b.depth));
+                composite(frags.iter())
+            }
         }
     }
 }
@@ -131,7 +139,8 @@ impl Layers {
 /// Exact composite: all fragments sorted by depth (ties keep insertion order).
 pub fn resolve_sorted(frags: &mut [Fragment], background: Vec3) -> Vec3 {
     frags.sort_by(|a, b| a.depth.total_cmp(&b.depth));
-    composite(frags.iter(), background)
+    let (c, t) = composite(frags.iter());
+    c + background * t
 }
 
 #[cfg(test)]

@@ -244,6 +244,13 @@ pub struct RenderOptions {
     /// Quadrature directions of the environment light for far-field models
     /// ([`super::env_light`]).
     pub environment_directions: usize,
+    /// Strand level of detail: the fraction of the strands drawn
+    /// ([`super::lod`]).
+    pub lod: super::lod::Lod,
+    /// Hair culling ([`super::cull::BehindHair`]): a pixel's hair behind
+    /// the depth where its transmittance falls below this is skipped (0:
+    /// off; MLAB and sorted transparency).
+    pub hair_cull_transmittance: f32,
 }
 
 impl RenderOptions {
@@ -280,6 +287,8 @@ impl Default for RenderOptions {
             dual_forward_density: 0.7,
             dual_back_density: 0.7,
             environment_directions: super::env_light::DIRECTIONS,
+            lod: super::lod::Lod::default(),
+            hair_cull_transmittance: 0.0,
         }
     }
 }

@@ -7,7 +7,7 @@
 
 use super::bin::TILE;
 use super::coverage::{coverage, ray_sphere, triangle_pixels, RowSpan, Tri2};
-use super::cull::BehindOpaque;
+use super::cull::{BehindHair, BehindOpaque};
 use super::oit::Layers;
 use super::samples::{strand_covers, unit, SampleBuffer, SamplePoints};
 use super::scene::{RenderOptions, Scene, Transparency};
@@ -47,6 +47,8 @@ pub struct TileResult {
     pub non_finite: u64,
     /// Segment or card-triangle visits skipped by opaque culling.
     pub culled: u64,
+    /// Hair fragments and segment visits skipped by hair culling.
+    pub hair_culled: u64,
 }
 
 impl TileResult {
@@ -57,6 +59,7 @@ impl TileResult {
             fragments: 0,
             non_finite: 0,
             culled: 0,
+            hair_culled: 0,
         }
     }
 }
@@ -71,6 +74,7 @@ pub fn render_tile(ctx: &TileContext<'_>, bins: &TileBins<'_>, tx: u32, ty: u32)
         t.pixel_indices().map(|k| t.opaque_depth[k]),
     );
     t.start_samples();
+    t.start_hair_culling();
     t.strands(bins.segs, behind);
     t.cards(bins.cards, behind);
     t.shade_pending();
@@ -85,9 +89,11 @@ struct Tile<'a> {
     y0: u32,
     tw: u32,
     th: u32,
-    /// Nearest opaque depth and the radiance behind the hair, per pixel.
+    /// Nearest opaque depth and surface per pixel (None: the background).
+    /// A surface is shaded only where the hair in front lets it be seen
+    /// ([`Self::base`]).
     opaque_depth: Vec<f32>,
-    base: Vec<Vec3>,
+    surface: Vec<Option<Surface>>,
     layers: Layers,
     /// Coverage samples (transparency `coverage`): the points and the
     /// nearest fragment per sample; fragments are then collected in
@@ -99,8 +105,12 @@ struct Tile<'a> {
     /// composited in that same order (MLAB depends on it).
     deferred: bool,
     pending: Pending,
+    /// Hair culling (MLAB and sorted transparency; see [`BehindHair`]).
+    hair: Option<BehindHair>,
     fragments: u64,
     culled: u64,
+    /// Fragments and segment visits skipped by hair culling.
+    hair_culled: u64,
 }
 
 impl<'a> Tile<'a> {
@@ -114,7 +124,7 @@ impl<'a> Tile<'a> {
             tw: TILE.min(ctx.view.width - x0),
             th: TILE.min(ctx.view.height - y0),
             opaque_depth: vec![f32::INFINITY; n],
-            base: vec![Vec3::ZERO; n],
+            surface: vec![None; n],
             layers: Layers::new(
                 n,
                 match ctx.opts.transparency {
@@ -125,9 +135,29 @@ impl<'a> Tile<'a> {
             samples: None,
             deferred: !ctx.opts.vertex_shading && ctx.shader.batches(),
             pending: Pending::default(),
+            hair: None,
             fragments: 0,
             culled: 0,
+            hair_culled: 0,
         }
+    }
+
+    /// Hair culling, once the opaque depth is known (on when the cutoff is
+    /// positive, except with coverage samples, whose hair is opaque).
+    fn start_hair_culling(&mut self) {
+        let cutoff = self.ctx.opts.hair_cull_transmittance;
+        if cutoff > 0.0 && self.samples.is_none() {
+            let px: Vec<usize> = self.pixel_indices().collect();
+            self.hair = Some(BehindHair::new(cutoff, px, &self.opaque_depth));
+        }
+    }
+
+    /// Whether hair culling hides a fragment at pixel `k`, `depth` (counted).
+    #[inline]
+    fn hidden_by_hair(&mut self, k: usize, depth: f32) -> bool {
+        let hidden = self.hair.as_ref().is_some_and(|h| h.hides(k, depth));
+        self.hair_culled += hidden as u64;
+        hidden
     }
 
     /// Tile-local indices of the pixels inside the image.
@@ -145,31 +175,50 @@ impl<'a> Tile<'a> {
         ]
     }
 
-    /// Background (the environment seen along the ray, clamped SH, else the
-    /// constant) and the nearest sphere, per pixel.
+    /// The nearest sphere per pixel.
     fn opaque_spheres(&mut self) {
         let (scene, view) = (self.ctx.scene, self.ctx.view);
+        if scene.spheres.is_empty() {
+            return;
+        }
         for j in 0..self.th {
             for i in 0..self.tw {
                 let k = (j * TILE + i) as usize;
                 let p = self.center(i as i64, j as i64);
                 let ray = view.ray(p[0], p[1]);
-                self.base[k] = match &scene.environment {
-                    Some(env) => Vec3::from(sh9_eval(&env.sh, &ray.to_array())).max(Vec3::ZERO),
-                    None => self.ctx.opts.background,
-                };
                 for s in &scene.spheres {
                     if let Some(t) = ray_sphere(view.eye, ray, s.center, s.radius) {
                         let depth = t * ray.dot(view.forward);
                         if depth < self.opaque_depth[k] && depth > view.near {
                             self.opaque_depth[k] = depth;
                             let hit = view.eye + ray * t;
-                            let n = (hit - s.center) / s.radius;
-                            self.base[k] = shade_diffuse(self.ctx.shader, hit, n, s.albedo);
+                            self.surface[k] = Some(Surface {
+                                p: hit,
+                                n: (hit - s.center) / s.radius,
+                                albedo: s.albedo,
+                            });
                         }
                     }
                 }
             }
+        }
+    }
+
+    /// The radiance behind the hair at pixel `k`: its opaque surface,
+    /// shaded, or the background (the environment seen along the ray,
+    /// clamped SH, else the constant).
+    fn base(&self, k: usize) -> Vec3 {
+        match &self.surface[k] {
+            Some(s) => shade_diffuse(self.ctx.shader, s.p, s.n, s.albedo),
+            None => match &self.ctx.scene.environment {
+                Some(env) => {
+                    let (i, j) = ((k as u32 % TILE) as i64, (k as u32 / TILE) as i64);
+                    let p = self.center(i, j);
+                    let ray = self.ctx.view.ray(p[0], p[1]);
+                    Vec3::from(sh9_eval(&env.sh, &ray.to_array())).max(Vec3::ZERO)
+                }
+                None => self.ctx.opts.background,
+            },
         }
     }
 
@@ -192,7 +241,11 @@ impl<'a> Tile<'a> {
                 } else {
                     t.normal
                 };
-                self.base[k] = shade_diffuse(self.ctx.shader, pw, n, t.albedo);
+                self.surface[k] = Some(Surface {
+                    p: pw,
+                    n,
+                    albedo: t.albedo,
+                });
             }
         }
     }
@@ -247,6 +300,9 @@ impl<'a> Tile<'a> {
         color: Option<Vec3>,
     ) {
         self.fragments += 1;
+        if let Some(h) = &mut self.hair {
+            h.add(k, depth, alpha);
+        }
         if self.deferred {
             self.pending.push(k, depth, alpha, p, t, fiber);
             return;
@@ -266,11 +322,34 @@ impl<'a> Tile<'a> {
         let (view, opts) = (self.ctx.view, self.ctx.opts);
         let (x0, y0, tw, th) = (self.x0, self.y0, self.tw, self.th);
         let sampled = self.samples.is_some();
-        for &si in bin {
+        // With hair culling, front to back (nearest depth, then scene order).
+        let sorted: Vec<u32>;
+        let bin = if self.hair.is_some() {
+            let segs = self.ctx.segs;
+            let mut order: Vec<(f32, u32)> = bin
+                .iter()
+                .map(|&si| (segs[si as usize].za.min(segs[si as usize].zb), si))
+                .collect();
+            order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            sorted = order.into_iter().map(|(_, si)| si).collect();
+            &sorted[..]
+        } else {
+            bin
+        };
+        for (n, &si) in bin.iter().enumerate() {
             let s = &self.ctx.segs[si as usize];
             if behind.hides(s.za.min(s.zb)) {
                 self.culled += 1;
                 continue;
+            }
+            if self
+                .hair
+                .as_ref()
+                .is_some_and(|h| h.hides_tile(s.za.min(s.zb)))
+            {
+                // this one and every later one (they lie farther)
+                self.hair_culled += (bin.len() - n) as u64;
+                break;
             }
             let pad = s.pad();
             let bx0 = ((s.a[0].min(s.b[0]) - pad).floor() as i64 - x0 as i64).max(0) as u32;
@@ -308,6 +387,9 @@ impl<'a> Tile<'a> {
                     let inv = (1.0 - t) / s.za + t / s.zb;
                     let depth = 1.0 / inv;
                     if !(depth > view.near && depth < self.opaque_depth[k]) {
+                        continue;
+                    }
+                    if self.hidden_by_hair(k, depth) {
                         continue;
                     }
                     let tw_ = (t / s.zb) / inv;
@@ -350,7 +432,7 @@ impl<'a> Tile<'a> {
                 let u = (w[0] * t.uv[0][0] + w[1] * t.uv[1][0] + w[2] * t.uv[2][0]) * depth;
                 let v = (w[0] * t.uv[0][1] + w[1] * t.uv[1][1] + w[2] * t.uv[2][1]) * depth;
                 let alpha = tex.sample(u, v);
-                if !(alpha > 0.0) {
+                if !(alpha > 0.0) || self.hidden_by_hair(k, depth) {
                     continue;
                 }
                 let pw = (t.world[0] * w[0] + t.world[1] * w[1] + t.world[2] * w[2]) * depth;
@@ -434,20 +516,35 @@ impl<'a> Tile<'a> {
 
     /// Pixel `k`: the layers composited over the opaque radiance, or in
     /// coverage mode the mean over its samples of the owner's radiance
-    /// (the opaque radiance where no hair covers a sample).
+    /// (the opaque radiance where no hair covers a sample). The opaque
+    /// radiance is computed only where it is seen: where the hair's
+    /// transmittance is above 0, or above the hair-culling cutoff (which
+    /// bounds what is left out by cutoff × its radiance, as for the hair
+    /// behind).
     fn pixel(&mut self, k: usize) -> Vec3 {
         match &self.samples {
             Some((_, buf)) => {
                 let mut c = Vec3::ZERO;
+                let mut uncovered = 0u32;
                 for o in buf.owners(k) {
-                    c += match o {
-                        Some(i) => self.pending.color[i as usize],
-                        None => self.base[k],
-                    };
+                    match o {
+                        Some(i) => c += self.pending.color[i as usize],
+                        None => uncovered += 1,
+                    }
+                }
+                if uncovered > 0 {
+                    c += self.base(k) * uncovered as f32;
                 }
                 c / buf.n as f32
             }
-            None => self.layers.resolve(k, self.base[k]),
+            None => {
+                let (c, t) = self.layers.composite(k);
+                if t > self.ctx.opts.hair_cull_transmittance.max(0.0) {
+                    c + self.base(k) * t
+                } else {
+                    c
+                }
+            }
         }
     }
 
@@ -469,8 +566,17 @@ impl<'a> Tile<'a> {
             fragments: self.fragments,
             non_finite,
             culled: self.culled,
+            hair_culled: self.hair_culled,
         }
     }
+}
+
+/// An opaque surface point: position, normal towards the camera, albedo.
+#[derive(Debug, Clone, Copy)]
+struct Surface {
+    p: Vec3,
+    n: Vec3,
+    albedo: Vec3,
 }
 
 /// Hair fragments of a tile awaiting shading: pixel, depth, coverage

@@ -1,0 +1,229 @@
+//! Strand level of detail (after Capcom's RE ENGINE strand renderer): a
+//! fraction `f` of the strands is drawn, each `1/f` times as wide, so that
+//! the hair's projected area, its opacity where strands overlap little, and
+//! its fiber cross-section per unit volume (the density grid's and the
+//! shadow maps' input) are kept.
+//!
+//! Which strands: each strand has a fixed rank `u ∈ [0, 1)`, a hash of its
+//! index (the strands in a shuffled order, without reordering the scene),
+//! and is drawn when `u < f`: a uniform subset whose members do not depend
+//! on the scene's strand order beyond their indices, nested as `f` grows
+//! (raising the fraction adds strands and never swaps them). The widths are
+//! scaled by the total width over the kept strands' (radii summed over
+//! vertices; about `1/f`), so that the total width is kept exactly.
+//!
+//! `auto` picks `f` from the strands' width on screen: hair whose strands
+//! are thinner than [`AUTO_WIDTH`] pixels is drawn with fewer, wider
+//! strands, `f = clamp(w / AUTO_WIDTH, AUTO_MIN, 1)` with `w` the median
+//! projected strand width in pixels. Strands thinner than a pixel are what
+//! the rasterizer pays for most: each covers at least a pixel-wide
+//! footprint, so a strand `w` pixels wide costs about `w + 1` pixels per
+//! unit length, and `f` strands of width `w/f` cost `w + f`. Time against
+//! error over `f`: `hairshade bench --render` (section `lod`).
+
+use super::scene::{Camera, Strands};
+#[cfg(test)]
+use glam::Vec3;
+
+/// Projected width, in pixels, that `auto` widens thin strands to.
+pub const AUTO_WIDTH: f32 = 2.0;
+/// Smallest fraction `auto` picks.
+pub const AUTO_MIN: f32 = 0.125;
+
+/// How many strands a render draws.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Lod {
+    /// This fraction of the strands, in (0, 1].
+    Fraction(f32),
+    /// The fraction from the strands' width on screen (module docs).
+    Auto,
+}
+
+impl Default for Lod {
+    fn default() -> Self {
+        Lod::Fraction(1.0)
+    }
+}
+
+/// Rank of strand `s` in [0, 1): a 64-bit mix of its index (splitmix64's
+/// finalizer), the top 24 bits.
+#[inline]
+pub fn rank(s: usize) -> f32 {
+    let mut z = (s as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+}
+
+/// The fraction `lod` stands for with this camera.
+pub fn fraction(lod: Lod, strands: &Strands, camera: &Camera) -> f32 {
+    match lod {
+        Lod::Fraction(f) => f.clamp(f32::MIN_POSITIVE, 1.0),
+        Lod::Auto => match median_width_px(strands, camera) {
+            Some(w) => (w / AUTO_WIDTH).clamp(AUTO_MIN, 1.0),
+            None => 1.0,
+        },
+    }
+}
+
+/// Median over (up to 4096 evenly spaced) strand vertices in front of the
+/// camera of the strand's width in pixels there (`2r` over the pixel's
+/// footprint at the vertex's depth); None without such vertices.
+pub fn median_width_px(strands: &Strands, camera: &Camera) -> Option<f32> {
+    let n = strands.points.len();
+    if n == 0 {
+        return None;
+    }
+    let forward = (camera.target - camera.position).normalize_or_zero();
+    // Pixel footprint at depth z: 2 z tan(fov/2) / height.
+    let per_depth = 2.0 * (0.5 * camera.fov_y.to_radians()).tan() / camera.height.max(1) as f32;
+    let step = n.div_ceil(4096).max(1);
+    let mut w: Vec<f32> = (0..n)
+        .step_by(step)
+        .filter_map(|i| {
+            let z = (strands.points[i] - camera.position).dot(forward);
+            (z > 0.0 && per_depth > 0.0).then(|| 2.0 * strands.radii[i] / (z * per_depth))
+        })
+        .filter(|x| x.is_finite())
+        .collect();
+    if w.is_empty() {
+        return None;
+    }
+    let mid = w.len() / 2;
+    Some(*w.select_nth_unstable_by(mid, f32::total_cmp).1)
+}
+
+/// The strands with rank below `f`, widened to keep the total width
+/// (module docs); `None` when every strand is kept.
+pub fn reduce(strands: &Strands, f: f32) -> Option<Strands> {
+    let count = strands.strand_count();
+    if f >= 1.0 || count == 0 {
+        return None;
+    }
+    let kept: Vec<usize> = (0..count).filter(|&s| rank(s) < f).collect();
+    if kept.len() == count {
+        return None;
+    }
+    // Nothing ranked below f (f under ~1/N): the lowest-ranked strand alone.
+    let kept = if kept.is_empty() {
+        vec![(0..count)
+            .min_by(|&a, &b| rank(a).total_cmp(&rank(b)))
+            .expect("count > 0")]
+    } else {
+        kept
+    };
+    let width = |s: usize| -> f64 {
+        let r = strands.offsets[s] as usize..strands.offsets[s + 1] as usize;
+        strands.radii[r].iter().map(|&x| x as f64).sum()
+    };
+    let kept_width: f64 = kept.iter().map(|&s| width(s)).sum();
+    let total_width: f64 = (0..count).map(width).sum();
+    let widen = if kept_width > 0.0 {
+        (total_width / kept_width) as f32
+    } else {
+        1.0
+    };
+    let mut out = Strands {
+        points: Vec::new(),
+        radii: Vec::new(),
+        offsets: vec![0],
+    };
+    for s in kept {
+        let r = strands.offsets[s] as usize..strands.offsets[s + 1] as usize;
+        out.points.extend_from_slice(&strands.points[r.clone()]);
+        out.radii.extend(strands.radii[r].iter().map(|x| x * widen));
+        out.offsets.push(out.points.len() as u32);
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn strands(n: usize) -> Strands {
+        let mut s = Strands {
+            points: Vec::new(),
+            radii: Vec::new(),
+            offsets: vec![0],
+        };
+        for k in 0..n {
+            for j in 0..4 {
+                s.points
+                    .push(Vec3::new(k as f32 * 0.01, j as f32 * 0.1, 0.0));
+                s.radii.push(0.001 * (1.0 + (k % 3) as f32));
+            }
+            s.offsets.push(s.points.len() as u32);
+        }
+        s
+    }
+
+    /// 1. The kept subset is uniform (its share within 4 standard errors of
+    ///    f at N = 20000), nested as f grows, and the total width (Σ radius
+    ///    over vertices) is kept to f32 rounding (each radius is rounded
+    ///    once, 6e-8 relative, summed in f64: 1e-6 allows for it).
+    #[test]
+    fn t01_subset_uniform_nested_width_kept() {
+        let s = strands(20000);
+        let total: f64 = s.radii.iter().map(|&r| r as f64).sum();
+        let mut previous: Option<Vec<Vec3>> = None;
+        for f in [0.1f32, 0.25, 0.5, 0.9] {
+            let r = reduce(&s, f).unwrap();
+            let share = r.strand_count() as f64 / 20000.0;
+            let se = (f as f64 * (1.0 - f as f64) / 20000.0).sqrt();
+            assert!((share - f as f64).abs() < 4.0 * se, "f {f}: share {share}");
+            let kept_total: f64 = r.radii.iter().map(|&x| x as f64).sum();
+            assert!(
+                (kept_total / total - 1.0).abs() < 1e-6,
+                "{kept_total} vs {total}"
+            );
+            if let Some(p) = previous {
+                // every strand of the smaller set is in the larger one
+                let set: std::collections::HashSet<[u32; 3]> = r
+                    .points
+                    .iter()
+                    .map(|v| v.to_array().map(f32::to_bits))
+                    .collect();
+                assert!(p
+                    .iter()
+                    .all(|v| set.contains(&v.to_array().map(f32::to_bits))));
+            }
+            previous = Some(r.points.clone());
+        }
+        assert!(reduce(&s, 1.0).is_none());
+    }
+
+    /// 2. A tiny fraction keeps one strand; the ranks lie in [0, 1).
+    #[test]
+    fn t02_tiny_fraction_and_ranks() {
+        let s = strands(10);
+        let r = reduce(&s, 1e-9).unwrap();
+        assert_eq!(r.strand_count(), 1);
+        assert!((0..100000).map(rank).all(|u| (0.0..1.0).contains(&u)));
+    }
+
+    /// 3. The median width on screen: a strand of radius r at distance z
+    ///    along the view axis is 2r / (2 z tan(fov/2) / height) pixels.
+    #[test]
+    fn t03_median_width_in_pixels() {
+        let camera = Camera {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+            width: 1280,
+            height: 720,
+        };
+        let s = Strands {
+            points: vec![Vec3::ZERO, Vec3::new(0.0, 0.1, 0.0)],
+            radii: vec![0.001, 0.001],
+            offsets: vec![0, 2],
+        };
+        let want = 0.002 / (2.0 * 2.0 * (20f32).to_radians().tan() / 720.0);
+        let got = median_width_px(&s, &camera).unwrap();
+        assert!((got - want).abs() < 1e-4 * want, "{got} vs {want}");
+        let f = fraction(Lod::Auto, &s, &camera);
+        assert!((f - (want / AUTO_WIDTH).clamp(AUTO_MIN, 1.0)).abs() < 1e-6);
+    }
+}
