@@ -32,6 +32,7 @@ def render(
     light_cull_threshold: float | None = None,
     multiple_scattering: str | None = None,
     lod: float | str | None = None,
+    hair_cull_transmittance: float | None = None,
     progress: bool | None = None,
     return_stats: Literal[False] = False,
 ) -> Image: ...
@@ -54,6 +55,7 @@ def render(
     light_cull_threshold: float | None = None,
     multiple_scattering: str | None = None,
     lod: float | str | None = None,
+    hair_cull_transmittance: float | None = None,
     progress: bool | None = None,
     *,
     return_stats: Literal[True],
@@ -77,6 +79,7 @@ def render(
     light_cull_threshold: float | None = None,
     multiple_scattering: str | None = None,
     lod: float | str | None = None,
+    hair_cull_transmittance: float | None = None,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> Image | tuple[Image, dict[str, Any]]: ...
@@ -98,6 +101,7 @@ def render(
     light_cull_threshold: float | None = None,
     multiple_scattering: str | None = None,
     lod: float | str | None = None,
+    hair_cull_transmittance: float | None = None,
     progress: bool | None = None,
     return_stats: bool = False,
 ) -> Image | tuple[Image, dict[str, Any]]:
@@ -145,7 +149,15 @@ def render(
       and opacity are kept (a fixed pseudo-random subset, nested as the
       fraction grows), or "auto": strands thinner than 2 pixels on screen
       are drawn as fewer, wider ones (at least 1/8 of them); the stats
-      report ``lod_fraction`` and ``strands_drawn``.
+      report ``lod_fraction`` and ``strands_drawn``;
+    - ``hair_cull_transmittance`` (1e-3; 0 turns it off): with MLAB and
+      sorted transparency, a tile's strands are drawn front to back and,
+      per pixel, the hair behind the depth where the transmittance of the
+      hair drawn so far falls below this value is skipped, as is the
+      opaque surface behind it: what is left out is at most this value
+      times its radiance (stats: ``culled_behind_hair``). Drawn front to
+      back, MLAB merges its farthest layers in depth order, which makes it
+      closer to the exact sorted composite than in scene order.
 
     Ranges are checked by the renderer; a ``ValueError`` names the option.
     ``progress``: a progress bar (tqdm's when installed; default: where it
@@ -165,7 +177,7 @@ def render(
         transparency=transparency, layers=layers, samples=samples, shading=shading, frustum_culling=frustum_culling,
         backface_culling=backface_culling, opaque_culling=opaque_culling, skip_unused=skip_unused,
         reuse_shadow_maps=reuse_shadow_maps, light_cull_threshold=light_cull_threshold,
-        multiple_scattering=multiple_scattering, lod=lod,
+        multiple_scattering=multiple_scattering, lod=lod, hair_cull_transmittance=hair_cull_transmittance,
     )
     options.update({k: v for k, v in overrides.items() if v is not None})
     with Bar(0, "render", unit="tile", enabled=progress) as bar:

@@ -288,7 +288,7 @@ impl Default for RenderOptions {
             dual_back_density: 0.7,
             environment_directions: super::env_light::DIRECTIONS,
             lod: super::lod::Lod::default(),
-            hair_cull_transmittance: 0.0,
+            hair_cull_transmittance: 1e-3,
         }
     }
 }
