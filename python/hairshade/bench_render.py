@@ -21,6 +21,13 @@ and noisy; compare ratios, not absolute times). Rows (CSV columns
   interpolation between the two spp that bracket it) over the rasterizer's
   time; ``variant`` says ``interpolated``, ``<=`` (1 spp already reaches it:
   the ratio is an upper bound) or ``>=`` (256 spp do not: a lower bound).
+- ``models``: a dense ChiangHair head (the dense-hair reference scene
+  ``auburn_key``, 10k strands, 320x180) shaded with ChiangHair's tabulated
+  far field and with KarisHair, per pixel and per vertex, alternating.
+- ``lod``: the strand head (shadowed light and environment) at 1280x720 at
+  strand fractions 1, 1/2, 1/4, 1/8 and ``auto``, per vertex and per
+  pixel, shadow maps reused (``warm``) and built (``cold``), with its
+  relMSE against the full-strand render of the same settings.
 - ``strands``: the strand head with 1k to 100k strands (16 segments), 1280x720.
 - ``threads``: the strand head at 1280x720 on one thread and on all.
 - ``skip``: each skip on and off on the scene where it acts, with the
@@ -122,7 +129,7 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
     spps = (1, 4) if fast else SPP
     strands = (300, 1000, 3000) if fast else STRANDS
     head_strands = 3000 if fast else None
-    steps = ["frame", "error", "strands", "threads", "skip"]
+    steps = ["frame", "models", "lod", "error", "strands", "threads", "skip"]
     bar = progress(steps, desc="render bench", enabled=progress_bar)
 
     def head(n: int | None = None) -> dict[str, Any]:
@@ -145,6 +152,10 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
                         # per-vertex shading (on the vector kernel), maps reused
                         vtx = _best_ms(lambda: render(s, w, h, shading="vertex", progress=False), repeats)
                         rows.append(_row("frame", name, "vertex", w, h, ms=vtx))
+        elif step == "models":
+            rows += _models(fast, repeats)
+        elif step == "lod":
+            rows += _lod(fast, repeats, head())
         elif step == "error":
             cases = [(n, c, comparison_scene(n), reference_path(n, data), "chiang") for n, c in CASES.items()]
             cases += [(n, c, karis_scene(n), karis_reference_path(n, data), "karis") for n, c in KARIS_CASES.items()
@@ -202,6 +213,56 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
     return rows
 
 
+def _models(fast: bool, repeats: int) -> list[dict[str, Any]]:
+    """The same dense head shaded by ChiangHair and by KarisHair."""
+    path = os.path.join(REFERENCES, "dense", "auburn_key.json")
+    if not os.path.exists(path):
+        return []  # the dense references live in a source checkout's tests/data
+    with open(path) as f:
+        d = json.load(f)
+    if fast:
+        d["hair"]["generate"]["strands"] = 2000
+    w, h = (160, 90) if fast else tuple(d["camera"]["resolution"])
+    karis = copy.deepcopy(d)
+    karis["hair"]["material"] = {"model": "karis"}
+    scenes = {"ChiangHair": Scene.from_dict(d), "KarisHair": Scene.from_dict(karis)}
+    out = []
+    for shading in ("pixel", "vertex"):
+        best = {k: math.inf for k in scenes}
+        for name, s in scenes.items():  # warm-up: tables, shadow maps
+            render(s, w, h, shading=shading, progress=False)
+        for _ in range(max(repeats, 3)):
+            for name, s in scenes.items():
+                best[name] = min(best[name], _best_ms(lambda: render(s, w, h, shading=shading, progress=False), 1))
+        for name in scenes:
+            out.append(_row("models", "auburn_key", f"{name} {shading}", w, h, ms=best[name]))
+    return out
+
+
+LOD_FRACTIONS: tuple[float | str, ...] = (1.0, 0.5, 0.25, 0.125, "auto")
+
+
+def _lod(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any]]:
+    """Time and error against the full-strand render per strand fraction."""
+    w, h = (320, 180) if fast else (1280, 720)
+    if fast:
+        head["hair"]["generate"]["strands"] = 3000
+    s = _scene(head)
+    out = []
+    for shading in ("vertex", "pixel"):
+        full = render(s, w, h, shading=shading, progress=False)
+        for lod in LOD_FRACTIONS:
+            img, st = render(s, w, h, shading=shading, lod=lod, progress=False, return_stats=True)
+            warm = _best_ms(lambda: render(s, w, h, shading=shading, lod=lod, progress=False), repeats)
+            cold = _best_ms(lambda: render(s, w, h, shading=shading, lod=lod, reuse_shadow_maps=False,
+                                           progress=False), repeats)
+            label = f"{shading} lod={lod} ({st['lod_fraction']:.3f}, {st['strands_drawn']} strands)"
+            e = rel_mse(img, full)
+            out.append(_row("lod", "strand_head", f"{label} warm", w, h, ms=warm, rel=e))
+            out.append(_row("lod", "strand_head", f"{label} cold", w, h, ms=cold, rel=e))
+    return out
+
+
 def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any]]:
     """Each skip on and off: (ms on, ms off, max |difference|)."""
     w, h = (320, 180) if fast else (1280, 720)
@@ -245,6 +306,9 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
         ("reuse_shadow_maps (camera moved)", s, dict(reuse_shadow_maps=True), dict(reuse_shadow_maps=False)),
         ("light culling (4 dim far point lights)", s_lit, dict(light_cull_threshold=1e-4),
          dict(light_cull_threshold=0.0)),
+        # approximate, bounded: hair behind nearly opaque hair (cutoff 1e-3)
+        ("hair culling (behind opaque hair, cutoff 1e-3)", s, dict(hair_cull_transmittance=1e-3),
+         dict(hair_cull_transmittance=0.0)),
         # the head's material has Scatter > 0: skip_unused acts on the maps alone
         ("no map for lights culled everywhere (4 shadowed dim lights)", s_shadowed, dict(skip_unused=True),
          dict(skip_unused=False)),
@@ -278,6 +342,16 @@ def summary(rows: list[dict[str, Any]]) -> str:
             out.append(f"  {r['scene']:15s} {r['variant']:22s} {spp} {r['ms']:10.1f} ms  relMSE {r['rel_mse']:.3e}")
         if r["section"] == "equal_error":
             out.append(f"  {r['scene']:15s} Mitsuba time at equal error / rasterizer time: {r['variant']} {r['ms']:.3g}x")
+    out.append("Same dense head, ChiangHair (tabulated far field) and KarisHair")
+    m = {r["variant"]: r for r in rows if r["section"] == "models"}
+    for shading in ("pixel", "vertex"):
+        c, k = m.get(f"ChiangHair {shading}"), m.get(f"KarisHair {shading}")
+        if c and k:
+            out.append(f"  {shading:6s} ChiangHair {c['ms']:8.1f} ms  KarisHair {k['ms']:8.1f} ms  ratio {c['ms'] / k['ms']:.2f}")
+    out.append("Strand level of detail (time, relMSE against the full-strand render)")
+    for r in rows:
+        if r["section"] == "lod":
+            out.append(f"  {r['variant']:52s} {r['width']}x{r['height']} {r['ms']:8.1f} ms  relMSE {r['rel_mse']:.2e}")
     out.append("Scaling")
     for r in rows:
         if r["section"] == "strands":
@@ -321,7 +395,7 @@ def plot(rows: list[dict[str, Any]], path: str, dpi: int = 130) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.5))
+    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(16, 4.5))
     scenes = sorted({r["scene"] for r in rows if r["section"] in ("error", "mitsuba")})
     for k, name in enumerate(scenes):
         color = f"C{k}"
@@ -345,6 +419,22 @@ def plot(rows: list[dict[str, Any]], path: str, dpi: int = 130) -> None:
         bx.set_yscale("log")
         bx.set_xlabel(f"strands (16 segments), {s[0]['width']}x{s[0]['height']}")
         bx.set_ylabel("ms per frame")
+    lod = [r for r in rows if r["section"] == "lod" and r["variant"].endswith(" warm")]
+    for k, shading in enumerate(("vertex", "pixel")):
+        pts = [r for r in lod if r["variant"].startswith(shading) and "lod=auto" not in r["variant"]]
+        auto = [r for r in lod if r["variant"].startswith(shading) and "lod=auto" in r["variant"]]
+        if pts:
+            floor = min((r["rel_mse"] for r in pts if r["rel_mse"] > 0), default=1e-6) / 10
+            cx.plot([r["ms"] for r in pts], [max(r["rel_mse"], floor) for r in pts], "o-", color=f"C{k}",
+                    label=f"per {shading}, fractions 1 (error 0, drawn at {floor:.0e}) to 1/8")
+        for r in auto:
+            cx.plot(r["ms"], max(r["rel_mse"], 1e-9), "*", color=f"C{k}", ms=12, label=f"per {shading}, auto")
+    if lod:
+        cx.set_xscale("log")
+        cx.set_yscale("log")
+        cx.set_xlabel(f"ms per frame, strand head {lod[0]['width']}x{lod[0]['height']} (maps reused)")
+        cx.set_ylabel("relMSE vs the full-strand render")
+        cx.legend(fontsize=6)
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
