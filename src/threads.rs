@@ -58,3 +58,78 @@ unsafe fn clear_upper_avx() {
 pub fn num_threads() -> usize {
     pool().current_num_threads()
 }
+
+/// The items of `0..n` concatenated in index order, built in parallel on
+/// [`pool`] directly into the result: item `i` contributes exactly
+/// `count(i)` values, which `fill(i, push)` passes to `push` in order.
+/// (Collecting per-item vectors and flattening them copies the whole
+/// result on one thread, and its pages are first touched there.)
+///
+/// Panics if `fill(i)` pushes other than `count(i)` values.
+pub fn concat_ordered<T, C, F>(n: usize, count: C, fill: F) -> Vec<T>
+where
+    T: Send,
+    C: Fn(usize) -> usize + Sync,
+    F: Fn(usize, &mut dyn FnMut(T)) + Sync,
+{
+    use rayon::prelude::*;
+    let counts: Vec<usize> = pool().install(|| (0..n).into_par_iter().map(&count).collect());
+    let total: usize = counts.iter().sum();
+    let mut out: Vec<T> = Vec::with_capacity(total);
+    // Disjoint destination slices, one per item, in order.
+    let mut parts = Vec::with_capacity(n);
+    let mut rest = &mut out.spare_capacity_mut()[..total];
+    for &c in &counts {
+        let (a, b) = rest.split_at_mut(c);
+        parts.push(a);
+        rest = b;
+    }
+    pool().install(|| {
+        parts.into_par_iter().enumerate().for_each(|(i, dst)| {
+            let mut k = 0;
+            fill(i, &mut |v| {
+                assert!(k < dst.len(), "item {i} pushed more than its count");
+                dst[k].write(v);
+                k += 1;
+            });
+            assert_eq!(k, dst.len(), "item {i} pushed fewer than its count");
+        })
+    });
+    // SAFETY: every slot of `..total` was written exactly once (each
+    // item's slice was filled to its length, asserted above; a panic
+    // there unwinds before this line, leaving `out` empty).
+    unsafe { out.set_len(total) };
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    /// 1. Items concatenated in order whatever the thread count; a wrong
+    ///    count panics instead of leaving slots unwritten.
+    #[test]
+    fn t01_concat_ordered() {
+        let v = super::concat_ordered(
+            1000,
+            |i| i % 7,
+            |i, push| {
+                for k in 0..i % 7 {
+                    push((i, k));
+                }
+            },
+        );
+        let want: Vec<(usize, usize)> = (0..1000)
+            .flat_map(|i| (0..i % 7).map(move |k| (i, k)))
+            .collect();
+        assert_eq!(v, want);
+        let r = std::panic::catch_unwind(|| {
+            super::concat_ordered(
+                10,
+                |_| 2,
+                |i, push| {
+                    push(i);
+                },
+            )
+        });
+        assert!(r.is_err());
+    }
+}

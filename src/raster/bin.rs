@@ -85,28 +85,93 @@ fn bbox_tiles(x0: f32, x1: f32, y0: f32, y1: f32, grid: TileGrid) -> Option<Tile
     })
 }
 
-/// Per tile, the indices of the primitives whose tile range covers it.
+/// Per tile, the indices of the primitives whose tile range covers it, in
+/// primitive order: tile `t`'s are `items[offsets[t]..offsets[t + 1]]`.
 #[derive(Debug, Clone, Default)]
 pub struct Bins {
-    pub tiles: Vec<Vec<u32>>,
+    offsets: Vec<usize>,
+    items: Vec<u32>,
     /// Primitives that reach at least one tile.
     pub binned: usize,
 }
 
-/// Bins primitives by their tile ranges, in primitive order (so every
-/// tile sees its primitives in scene order, whatever the thread count).
-pub fn bin_to_tiles(ranges: impl Iterator<Item = Option<TileRange>>, grid: TileGrid) -> Bins {
-    let mut tiles: Vec<Vec<u32>> = vec![Vec::new(); grid.count()];
-    let mut binned = 0;
-    for (i, r) in ranges.enumerate() {
-        if let Some(r) = r {
-            binned += 1;
-            for ty in r.y0..=r.y1 {
-                for tx in r.x0..=r.x1 {
-                    tiles[(ty * grid.x + tx) as usize].push(i as u32);
+impl Bins {
+    /// The primitives binned to tile `t`, in primitive order.
+    #[inline]
+    pub fn tile(&self, t: usize) -> &[u32] {
+        &self.items[self.offsets[t]..self.offsets[t + 1]]
+    }
+}
+
+/// Bins primitives by their tile ranges (`ranges[i]` for primitive `i`),
+/// in primitive order (so every tile sees its primitives in scene order,
+/// whatever the thread count). In parallel: the primitives are cut into
+/// chunks; per chunk and tile, a count; from the counts, where each chunk
+/// writes in each tile's list; then the chunks fill their places.
+pub fn bin_to_tiles(ranges: &[Option<TileRange>], grid: TileGrid) -> Bins {
+    use crate::threads::pool;
+    use rayon::prelude::*;
+    let tiles = grid.count();
+    let chunk = (ranges.len() / (8 * crate::threads::num_threads()).max(1)).max(4096);
+    let chunks: Vec<&[Option<TileRange>]> = ranges.chunks(chunk).collect();
+    let cover = |r: TileRange| {
+        (r.y0..=r.y1).flat_map(move |ty| (r.x0..=r.x1).map(move |tx| (ty * grid.x + tx) as usize))
+    };
+    // counts[c][t]: entries of chunk c in tile t.
+    let counts: Vec<Vec<u32>> = pool().install(|| {
+        chunks
+            .par_iter()
+            .map(|c| {
+                let mut n = vec![0u32; tiles];
+                for r in c.iter().flatten() {
+                    for t in cover(*r) {
+                        n[t] += 1;
+                    }
                 }
-            }
+                n
+            })
+            .collect()
+    });
+    // Tile offsets, and where chunk c starts writing in tile t.
+    let mut offsets = vec![0usize; tiles + 1];
+    let mut starts: Vec<Vec<usize>> = vec![vec![0; tiles]; chunks.len()];
+    let mut at = 0usize;
+    for t in 0..tiles {
+        offsets[t] = at;
+        for (c, n) in counts.iter().enumerate() {
+            starts[c][t] = at;
+            at += n[t] as usize;
         }
     }
-    Bins { tiles, binned }
+    offsets[tiles] = at;
+    let mut items = vec![0u32; at];
+    let binned = ranges.iter().filter(|r| r.is_some()).count();
+    // Each chunk writes only its own places: share the buffer as a pointer.
+    struct Shared(*mut u32);
+    unsafe impl Sync for Shared {}
+    let out = Shared(items.as_mut_ptr());
+    pool().install(|| {
+        chunks.par_iter().enumerate().for_each(|(c, part)| {
+            let out = &out;
+            let mut next = starts[c].clone();
+            let first = c * chunk;
+            for (k, r) in part.iter().enumerate() {
+                let Some(r) = r else { continue };
+                for t in cover(*r) {
+                    // SAFETY: chunk c's places in tile t are
+                    // starts[c][t]..starts[c][t] + counts[c][t], disjoint
+                    // from every other chunk's and inside `items`; it
+                    // writes exactly counts[c][t] of them (the same
+                    // ranges as counted).
+                    unsafe { *out.0.add(next[t]) = (first + k) as u32 };
+                    next[t] += 1;
+                }
+            }
+        })
+    });
+    Bins {
+        offsets,
+        items,
+        binned,
+    }
 }

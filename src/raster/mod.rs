@@ -207,10 +207,14 @@ pub fn render_with_progress(
     };
     let (solids, backfaces_culled) = setup::project_solid_tris(scene, &view, &cull);
     stats.backfaces_culled = backfaces_culled;
-    let seg_bins = bin_to_tiles(segs.iter().map(|s| segment_tiles(s, grid)), grid);
+    let seg_ranges: Vec<_> =
+        pool().install(|| segs.par_iter().map(|s| segment_tiles(s, grid)).collect());
+    let seg_bins = bin_to_tiles(&seg_ranges, grid);
     stats.segments_visible = seg_bins.binned;
-    let card_bins = bin_to_tiles(cards.iter().map(|t| triangle_tiles(&t.p, grid)), grid);
-    let solid_bins = bin_to_tiles(solids.iter().map(|t| triangle_tiles(&t.p, grid)), grid);
+    let card_ranges: Vec<_> = cards.iter().map(|t| triangle_tiles(&t.p, grid)).collect();
+    let card_bins = bin_to_tiles(&card_ranges, grid);
+    let solid_ranges: Vec<_> = solids.iter().map(|t| triangle_tiles(&t.p, grid)).collect();
+    let solid_bins = bin_to_tiles(&solid_ranges, grid);
     stats.setup_ms = ms(t1);
 
     // 5. Tiles.
@@ -233,9 +237,9 @@ pub fn render_with_progress(
                     return TileResult::empty();
                 }
                 let bins = TileBins {
-                    segs: &seg_bins.tiles[ti],
-                    cards: &card_bins.tiles[ti],
-                    solids: &solid_bins.tiles[ti],
+                    segs: seg_bins.tile(ti),
+                    cards: card_bins.tile(ti),
+                    solids: solid_bins.tile(ti),
                 };
                 let (tx, ty) = grid.coords(ti);
                 let r = render_tile(&ctx, &bins, tx, ty);
@@ -365,29 +369,33 @@ fn assemble(
     h: u32,
     stats: &mut RenderStats,
 ) -> Image {
-    let mut data = vec![0.0f32; (w * h * 3) as usize];
-    for (ti, tile) in results.iter().enumerate() {
+    for tile in results {
         stats.fragments += tile.fragments;
         stats.non_finite_pixels += tile.non_finite;
         stats.culled_behind_opaque += tile.culled;
         stats.culled_behind_hair += tile.hair_culled;
-        let (tx, ty) = grid.coords(ti);
-        for j in 0..TILE {
-            let y = ty * TILE + j;
-            if y >= h {
-                break;
-            }
-            for i in 0..TILE {
-                let x = tx * TILE + i;
-                if x >= w {
-                    break;
-                }
-                let src = ((j * TILE + i) * 3) as usize;
-                let dst = ((y * w + x) * 3) as usize;
-                data[dst..dst + 3].copy_from_slice(&tile.pixels[src..src + 3]);
-            }
-        }
     }
+    // One row of tiles per task.
+    let mut data = vec![0.0f32; (w * h * 3) as usize];
+    let row = (w * TILE * 3) as usize;
+    pool().install(|| {
+        data.par_chunks_mut(row).enumerate().for_each(|(ty, out)| {
+            let rows = out.len() / (w as usize * 3);
+            for tx in 0..grid.x {
+                let tile = &results[(ty as u32 * grid.x + tx) as usize];
+                if tile.pixels.is_empty() {
+                    continue;
+                }
+                for j in 0..rows {
+                    for i in 0..TILE.min(w - tx * TILE) {
+                        let src = ((j as u32 * TILE + i) * 3) as usize;
+                        let dst = (j * w as usize + (tx * TILE + i) as usize) * 3;
+                        out[dst..dst + 3].copy_from_slice(&tile.pixels[src..src + 3]);
+                    }
+                }
+            }
+        })
+    });
     Image {
         width: w,
         height: h,

@@ -4,9 +4,7 @@
 
 use super::scene::{Scene, Strands};
 use super::view::View;
-use crate::threads::pool;
 use glam::Vec3;
-use rayon::prelude::*;
 
 /// A projected strand segment.
 #[derive(Debug, Clone, Copy)]
@@ -133,29 +131,37 @@ pub fn near_reference(scene: &Scene, bounds: Bounds) -> f32 {
 
 /// Every strand segment in world space (for shadow maps: unclipped).
 pub fn world_segments(st: &Strands) -> Vec<WorldSegment> {
-    let mut out = Vec::new();
-    for s in 0..st.strand_count() {
-        let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
-        for i in i0..i1.saturating_sub(1) {
-            out.push(WorldSegment {
-                a: st.points[i],
-                b: st.points[i + 1],
-                ra: st.radii[i],
-                rb: st.radii[i + 1],
-                strand: s as u32,
-            });
-        }
-    }
-    out
+    let range = |s: usize| st.offsets[s] as usize..(st.offsets[s + 1] as usize).saturating_sub(1);
+    crate::threads::concat_ordered(
+        st.strand_count(),
+        |s| range(s).len(),
+        |s, push| {
+            for i in range(s) {
+                push(WorldSegment {
+                    a: st.points[i],
+                    b: st.points[i + 1],
+                    ra: st.radii[i],
+                    rb: st.radii[i + 1],
+                    strand: s as u32,
+                });
+            }
+        },
+    )
 }
 
 /// Projects every strand segment, clipped to the near plane, in parallel
 /// over strands and in scene order.
 pub fn project_segments(st: &Strands, view: &View) -> Vec<Segment> {
-    let project = |s: usize| -> Vec<Segment> {
-        let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
-        let mut out = Vec::with_capacity(i1.saturating_sub(i0 + 1));
-        for i in i0..i1.saturating_sub(1) {
+    let range = |s: usize| st.offsets[s] as usize..(st.offsets[s + 1] as usize).saturating_sub(1);
+    // Segments wholly behind the near plane are dropped (the same test as
+    // in `project`, on the same view-space depths).
+    let behind = |i: usize| {
+        view.to_view(st.points[i]).z < view.near && view.to_view(st.points[i + 1]).z < view.near
+    };
+    let count = |s: usize| range(s).filter(|&i| !behind(i)).count();
+    let project = |s: usize, push: &mut dyn FnMut(Segment)| {
+        let i1 = st.offsets[s + 1] as usize;
+        for i in range(s) {
             let (mut pa, mut pb) = (st.points[i], st.points[i + 1]);
             let (mut ra, mut rb) = (st.radii[i], st.radii[i + 1]);
             let (mut ta, mut tb) = (0.0, 1.0);
@@ -176,7 +182,7 @@ pub fn project_segments(st: &Strands, view: &View) -> Vec<Segment> {
                     vb = view.to_view(pb);
                 }
             }
-            out.push(Segment {
+            push(Segment {
                 a: view.project2(va),
                 b: view.project2(vb),
                 za: va.z,
@@ -196,15 +202,8 @@ pub fn project_segments(st: &Strands, view: &View) -> Vec<Segment> {
                 strand: s as u32,
             });
         }
-        out
     };
-    let per_strand: Vec<Vec<Segment>> = pool().install(|| {
-        (0..st.strand_count())
-            .into_par_iter()
-            .map(project)
-            .collect()
-    });
-    per_strand.into_iter().flatten().collect()
+    crate::threads::concat_ordered(st.strand_count(), count, project)
 }
 
 /// Radiance at the segments' ends from the per-vertex radiance (linear
