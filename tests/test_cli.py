@@ -22,6 +22,22 @@ def test_render_and_compare(tmp_path):
     assert "relMSE 0.0000e+00" in r.stdout and (tmp_path / "cmp.png").exists()
 
 
+def test_render_lod_and_shading(tmp_path):
+    """--lod and --shading reach the renderer: a quarter of the head's
+    25 000 strands is drawn (within 4 standard errors); out-of-range or
+    unreadable values exit with 2 and name the option."""
+    out = tmp_path / "head.exr"
+    r = run("render", str(EXAMPLES / "strand_head.json"), "-o", str(out), "--width", "160", "--lod", "0.25",
+            "--shading", "vertex")
+    assert r.returncode == 0, r.stderr
+    drawn = int(r.stdout.split(" strands drawn")[0].rsplit(" ", 1)[1])
+    assert abs(drawn - 6250) < 4 * (25000 * 0.25 * 0.75) ** 0.5, r.stdout
+    r = run("render", str(EXAMPLES / "strand_head.json"), "-o", str(out), "--width", "16", "--lod", "2")
+    assert r.returncode == 2 and "lod" in r.stderr
+    r = run("render", str(EXAMPLES / "strand_head.json"), "-o", str(out), "--lod", "half")
+    assert r.returncode == 2 and "--lod" in r.stderr
+
+
 def test_errors_exit_2(tmp_path):
     r = run("render", str(tmp_path / "missing.json"))
     assert r.returncode == 2 and "missing.json: file not found" in r.stderr

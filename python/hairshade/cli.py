@@ -165,6 +165,16 @@ def _finite(text: str) -> float:
     return x
 
 
+def _lod(text: str) -> float | str:
+    """--lod: 'auto' or a number (its range is checked by the renderer)."""
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a fraction in (0, 1], got {text!r}") from None
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     import time
 
@@ -179,13 +189,14 @@ def cmd_render(args: argparse.Namespace) -> int:
     scene = Scene.load(args.scene, allow_outside=args.allow_outside)
     t = time.perf_counter()
     img, stats = render(scene, width=args.width, height=args.height, transparency=args.transparency,
-                        layers=args.layers, return_stats=True)
+                        layers=args.layers, shading=args.shading, lod=args.lod, return_stats=True)
     dt = time.perf_counter() - t
     # The image itself in the format its name asks for; --png adds a preview
     # next to an EXR (a PNG output is the preview already).
     (write_exr if ext == ".exr" else lambda p, im: write_png(p, im, exposure=args.exposure))(out, img)
     print(f"{args.scene}: {img.shape[1]}x{img.shape[0]} in {dt * 1000:.0f} ms "
-          f"({stats['segments_visible']} visible segments, {stats['fragments']} fragments) -> {out}")
+          f"({stats['segments_visible']} visible segments, {stats['fragments']} fragments, "
+          f"{stats['strands_drawn']} strands drawn) -> {out}")
     if args.png and ext == ".exr":
         png = os.path.splitext(out)[0] + ".png"
         write_png(png, img, exposure=args.exposure)
@@ -331,8 +342,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="let the scene read files outside its folder (default: only files inside it)")
     r.add_argument("--width", type=int)
     r.add_argument("--height", type=int)
-    r.add_argument("--transparency", choices=("mlab", "sorted"))
+    r.add_argument("--transparency", choices=("mlab", "sorted", "coverage"))
     r.add_argument("--layers", type=int)
+    r.add_argument("--shading", choices=("pixel", "vertex"))
+    r.add_argument("--lod", type=_lod, help="fraction of the strands drawn, in (0, 1], or 'auto'")
     r.set_defaults(func=cmd_render)
     c = sub.add_parser("compare", help="relMSE and FLIP of IMAGE against REFERENCE (EXR files)")
     c.add_argument("image")
