@@ -15,7 +15,7 @@ and noisy; compare ratios, not absolute times). Rows (CSV columns
 - ``mitsuba``: Mitsuba rendering the same scene variant at 1, 4, 16, 64, 256
   spp (seed 1, the reference used seed 0), time and relMSE against the
   reference. The time is the render alone: JIT compilation (a warm-up
-  render first) and scene loading are not counted. The reference's own noise
+  render with the same settings first) and scene loading are not counted. The reference's own noise
   sets a floor (tests/test_render.py).
 - ``equal_error``: Mitsuba's time at the rasterizer's error (log-log
   interpolation between the two spp that bracket it) over the rasterizer's
@@ -175,12 +175,13 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
                 try:
                     from . import mitsuba as hm
 
-                    # warm-up: JIT compilation of the kernels is not counted
-                    hm.render(s, spp=1, integrator="direct", width=w, height=h, seed=2, passes=1, progress=False,
-                              hair_bsdf=bsdf)
                     for spp in spps:
                         if bsdf == "karis" and spp > 64:
                             continue  # the Python BSDF plugin is slow: 64 spp is enough to bracket
+                        # warm-up with these very settings: JIT compilation of the
+                        # kernels (drjit may compile anew per spp and seed) is not counted
+                        hm.render(s, spp=spp, integrator="direct", width=w, height=h, seed=1, passes=1,
+                                  progress=False, hair_bsdf=bsdf)
                         timing: dict[str, float] = {}
                         m = hm.render(s, spp=spp, integrator="direct", width=w, height=h, seed=1, passes=1,
                                       progress=False, hair_bsdf=bsdf, timing=timing)
