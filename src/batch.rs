@@ -80,6 +80,24 @@ fn chunk_for(n: usize) -> usize {
     (n / (4 * pool().current_num_threads().max(1))).clamp(16, CHUNK)
 }
 
+/// Runs a vector kernel over `out` (records of `w` values) in parallel on
+/// [`pool`]: `kernel(first, part)` fills the records `first..` of `part`,
+/// chunks being whole multiples of 16 records (every lane count); chunks
+/// not yet started when Ctrl-C is seen are skipped.
+fn par_kernel_chunks(out: &mut [f32], w: usize, kernel: impl Fn(usize, &mut [f32]) + Sync) {
+    assert!(out.len() % w == 0);
+    pool().install(|| {
+        let chunk = chunk_for(out.len() / w).next_multiple_of(16);
+        out.par_chunks_mut(w * chunk)
+            .enumerate()
+            .for_each(|(k, part)| {
+                if !stopped() {
+                    kernel(k * chunk, part)
+                }
+            })
+    });
+}
+
 #[inline(always)]
 fn load<T: Real>(a: &[T], i: usize) -> Option<Vec3<T>> {
     normalized(&[a[3 * i], a[3 * i + 1], a[3 * i + 2]])
@@ -408,18 +426,9 @@ pub fn karis_eval_simd<const LOBES: bool>(
     out: &mut [f32],
     level: crate::simd::Level,
 ) {
-    let w = if LOBES { 12 } else { 3 };
-    assert!(out.len() % w == 0);
     let level = level.min_with(crate::simd::Level::detect());
-    pool().install(|| {
-        let chunk = chunk_for(out.len() / w).next_multiple_of(16);
-        out.par_chunks_mut(w * chunk)
-            .enumerate()
-            .for_each(|(k, part)| {
-                if !stopped() {
-                    crate::fiber::karis::simd::eval_range::<LOBES>(m, inp, k * chunk, part, level)
-                }
-            })
+    par_kernel_chunks(out, if LOBES { 12 } else { 3 }, |first, part| {
+        crate::fiber::karis::simd::eval_range::<LOBES>(m, inp, first, part, level)
     });
 }
 
@@ -440,18 +449,10 @@ pub fn chiang_eval_simd(
     out: &mut [f32],
     level: crate::simd::Level,
 ) {
-    let n = pair_count(wi, wo);
-    assert_eq!(out.len(), 3 * n);
+    assert_eq!(out.len(), 3 * pair_count(wi, wo));
     let level = level.min_with(crate::simd::Level::detect());
-    pool().install(|| {
-        let chunk = chunk_for(n).next_multiple_of(16);
-        out.par_chunks_mut(3 * chunk)
-            .enumerate()
-            .for_each(|(k, part)| {
-                if !stopped() {
-                    crate::fiber::chiang::simd::eval_range(m, wi, wo, k * chunk, part, level)
-                }
-            })
+    par_kernel_chunks(out, 3, |first, part| {
+        crate::fiber::chiang::simd::eval_range(m, wi, wo, first, part, level)
     });
 }
 
@@ -465,24 +466,11 @@ pub fn chiang_far_table_simd(
     out: &mut [f32],
     level: crate::simd::Level,
 ) {
-    let n = pair_count(wi, wo);
-    assert_eq!(out.len(), 3 * n);
+    assert_eq!(out.len(), 3 * pair_count(wi, wo));
     let level = level.min_with(crate::simd::Level::detect());
-    pool().install(|| {
-        let chunk = chunk_for(n).next_multiple_of(16);
-        out.par_chunks_mut(3 * chunk)
-            .enumerate()
-            .for_each(|(k, part)| {
-                if !stopped() {
-                    crate::fiber::chiang::table_eval_range(
-                        t,
-                        crate::fiber::chiang::Pairs::Local(wi, wo),
-                        k * chunk,
-                        part,
-                        level,
-                    )
-                }
-            })
+    let pairs = crate::fiber::chiang::Pairs::Local(wi, wo);
+    par_kernel_chunks(out, 3, |first, part| {
+        crate::fiber::chiang::table_eval_range(t, pairs, first, part, level)
     });
 }
 

@@ -236,25 +236,7 @@ mod tests {
             };
             let b = [a[0] + len * ang.cos(), a[1] + len * ang.sin()];
             let w = |u: f32| if u < 0.5 { 2.0 * u } else { 16.0 * (u - 0.5) };
-            let s = Segment {
-                a,
-                b,
-                za: 1.0,
-                zb: 1.0,
-                wa: w(rnd()),
-                wb: w(rnd()),
-                pa: Vec3::ZERO,
-                pb: Vec3::ZERO,
-                last: n % 3 == 0,
-                i: 0,
-                ta: 0.0,
-                tb: 1.0,
-                ca: Vec3::ZERO,
-                cb: Vec3::ZERO,
-                ra: 0.0,
-                rb: 0.0,
-                strand: 0,
-            };
+            let s = Segment::on_screen(a, b, (w(rnd()), w(rnd())), n % 3 == 0);
             let pad = s.pad();
             let span = RowSpan::new(&s, pad - 0.5);
             let x0 = ((a[0].min(b[0]) - pad).max(0.0) as u32 / TILE) * TILE;

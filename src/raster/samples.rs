@@ -172,28 +172,9 @@ impl SampleBuffer {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
     fn segment(a: [f32; 2], b: [f32; 2], w: f32) -> Segment {
-        Segment {
-            a,
-            b,
-            za: 1.0,
-            zb: 1.0,
-            wa: w,
-            wb: w,
-            pa: Vec3::ZERO,
-            pb: Vec3::ZERO,
-            last: false,
-            i: 0,
-            ta: 0.0,
-            tb: 1.0,
-            ca: Vec3::ZERO,
-            cb: Vec3::ZERO,
-            ra: 0.0,
-            rb: 0.0,
-            strand: 0,
-        }
+        Segment::on_screen(a, b, (w, w), false)
     }
 
     /// 1. Each pixel's points are uniform over the pixel: over a 64×64-pixel

@@ -45,6 +45,31 @@ impl Segment {
     pub fn pad(&self) -> f32 {
         0.5 * self.wa.max(self.wb).max(1.0) + 1.0
     }
+
+    /// A screen-space segment from `a` to `b` at depth 1, `wa`, `wb` pixels
+    /// wide at its ends, on no strand (for the coverage tests).
+    #[cfg(test)]
+    pub fn on_screen(a: [f32; 2], b: [f32; 2], (wa, wb): (f32, f32), last: bool) -> Self {
+        Segment {
+            a,
+            b,
+            za: 1.0,
+            zb: 1.0,
+            wa,
+            wb,
+            pa: Vec3::ZERO,
+            pb: Vec3::ZERO,
+            last,
+            i: 0,
+            ta: 0.0,
+            tb: 1.0,
+            ca: Vec3::ZERO,
+            cb: Vec3::ZERO,
+            ra: 0.0,
+            rb: 0.0,
+            strand: 0,
+        }
+    }
 }
 
 /// A strand segment in world space, with the radii at its ends.

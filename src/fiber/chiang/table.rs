@@ -59,18 +59,18 @@ impl TableSize {
 }
 
 /// Values per grid node: N̄_p for p = 0, 1, 2, RGB each.
-pub(super) const NODE: usize = 3 * 3;
+const NODE: usize = 3 * 3;
 
 /// The far field of one [`ChiangHair`] from tables (see the module docs).
 #[derive(Debug)]
 pub struct ChiangFarTable {
     /// The model: longitudinal terms.
     model: ChiangHair<f32>,
-    pub(super) size: TableSize,
+    size: TableSize,
     /// N̄_p at node (c, φ): `n[(c · size.phi + φ) · NODE + 3p + channel]`.
-    pub(super) n: Vec<f32>,
+    n: Vec<f32>,
     /// Ā_3 per cos θi node.
-    pub(super) a3: Vec<[f32; 3]>,
+    a3: Vec<[f32; 3]>,
     /// The dual-scattering tables, built on first use, with their d_b.
     dual: std::sync::Mutex<Option<(f32, std::sync::Arc<crate::fiber::dual::DualTable>)>>,
 }

@@ -5,9 +5,10 @@
 //! The vector part computes what is arithmetic: the directions' longitudinal
 //! angles, `|φo − φi|` (one `atan2` of the cross and dot products of the two
 //! projections on the normal plane), the four `M_p` (the near-field
-//! kernel's, exact I0) and the grid coordinates. The bilinear look-ups of
-//! `N̄_p` (9 values at 4 nodes) and `Ā_3` are gathers, done lane by lane
-//! from the same vectors, so a lane's value depends on that lane alone.
+//! kernel's, exact I0). The bilinear look-ups of `N̄_p` (9 values at 4
+//! nodes) and `Ā_3` are gathers, done lane by lane by the table's own
+//! [`ChiangFarTable::azimuthal`], so a lane's value depends on that lane
+//! alone.
 //!
 //! Differences from the scalar path, all at the level of f32 rounding: `M_p`
 //! through [`super::simd::m_p`] (its I0 polynomials), and `|φo − φi|` from
@@ -17,7 +18,6 @@
 //! direction (it takes `atan2(0, 0) = 0` as the undefined azimuth).
 
 use super::simd::{m_p, Consts};
-use super::table::NODE;
 use super::ChiangFarTable;
 use crate::simd::{atan2, dot, load_dir, Lanes, Level, F};
 #[cfg(target_arch = "x86_64")]
@@ -75,9 +75,18 @@ fn eval_world_lanes<V: Lanes>(
     let sin_o = dot(&tn, &l).clamp(-1.0, 1.0);
     let cos_i = sin_i.mul_add(-sin_i, c(1.0)).max(c(0.0)).sqrt();
     let cos_o = sin_o.mul_add(-sin_o, c(1.0)).max(c(0.0)).sqrt();
-    // Projections on the normal plane, and the angle between them.
-    let vp = [0, 1, 2].map(|a| tn[a].mul_add(-sin_i, v[a]));
-    let lp = [0, 1, 2].map(|a| tn[a].mul_add(-sin_o, l[a]));
+    // Projections on the normal plane, and the angle between them (no
+    // closures in a kernel: see `crate::simd::load_dir`).
+    let vp = [
+        tn[0].mul_add(-sin_i, v[0]),
+        tn[1].mul_add(-sin_i, v[1]),
+        tn[2].mul_add(-sin_i, v[2]),
+    ];
+    let lp = [
+        tn[0].mul_add(-sin_o, l[0]),
+        tn[1].mul_add(-sin_o, l[1]),
+        tn[2].mul_add(-sin_o, l[2]),
+    ];
     let cx = vp[1].mul_add(lp[2], -(vp[2] * lp[1]));
     let cy = vp[2].mul_add(lp[0], -(vp[0] * lp[2]));
     let cz = vp[0].mul_add(lp[1], -(vp[1] * lp[0]));
@@ -129,49 +138,31 @@ fn look_up<V: Lanes>(
         m_p(k, 2, sin_i, cos_i, sin_o, cos_o),
         m_p(k, 3, sin_i, cos_i, sin_o, cos_o),
     ];
-    // Grid coordinates (as `grid_cell`): cos θi over [0, 1], φ/π over [0, 1].
-    let (nc, np) = (t.size.cos_theta, t.size.phi);
-    let tc = cos_i.clamp(0.0, 1.0) * (nc - 1) as f32;
-    let tp = (phi * std::f32::consts::FRAC_1_PI).clamp(0.0, 1.0) * (np - 1) as f32;
     let ok = V::select(ok, c(1.0), c(0.0));
 
+    // The table's look-ups lane by lane (gathers), as the scalar path does.
     let mut lanes = [[0.0f32; 16]; 7];
-    for (dst, v) in lanes.iter_mut().zip([m[0], m[1], m[2], m[3], tc, tp, ok]) {
+    for (dst, v) in lanes
+        .iter_mut()
+        .zip([m[0], m[1], m[2], m[3], cos_i, phi, ok])
+    {
         v.store(dst);
     }
-    let [m0, m1, m2, m3, tc, tp, ok] = &lanes;
-    let (n, a3) = (&t.n[..], &t.a3[..]);
+    let [m0, m1, m2, m3, cos_i, phi, ok] = &lanes;
     for j in 0..count {
         let o = &mut out[3 * j..3 * j + 3];
         if ok[j] == 0.0 {
             o.fill(0.0);
             continue;
         }
-        let kc = (tc[j] as usize).min(nc - 2);
-        let fc = tc[j] - kc as f32;
-        let kp = (tp[j] as usize).min(np - 2);
-        let fp = tp[j] - kp as f32;
-        let (w00, w01, w10, w11) = (
-            (1.0 - fc) * (1.0 - fp),
-            (1.0 - fc) * fp,
-            fc * (1.0 - fp),
-            fc * fp,
-        );
-        let b00 = (kc * np + kp) * NODE;
-        let b10 = b00 + np * NODE;
-        let (n00, n01) = (&n[b00..b00 + NODE], &n[b00 + NODE..b00 + 2 * NODE]);
-        let (n10, n11) = (&n[b10..b10 + NODE], &n[b10 + NODE..b10 + 2 * NODE]);
+        let (n, a3) = t.azimuthal(cos_i[j], phi[j]);
         let mp = [m0[j], m1[j], m2[j]];
-        let (a, b) = (a3[kc], a3[kc + 1]);
-        for ch in 0..3 {
+        for (ch, o) in o.iter_mut().enumerate() {
             let mut sum = 0.0f32;
             for (p, &mpj) in mp.iter().enumerate() {
-                let x = 3 * p + ch;
-                let np_ = w00 * n00[x] + w01 * n01[x] + w10 * n10[x] + w11 * n11[x];
-                sum += finite_or_zero(mpj * np_);
+                sum += finite_or_zero(mpj * n[p][ch]);
             }
-            sum += finite_or_zero(m3[j] * (a[ch] + fc * (b[ch] - a[ch])));
-            o[ch] = sum;
+            *o = sum + finite_or_zero(m3[j] * a3[ch]);
         }
     }
 }
