@@ -66,7 +66,7 @@ impl BehindOpaque {
 /// `z_sat` tight, and once every pixel is saturated or behind opaque
 /// geometry, a segment whose nearest depth is behind all of them is
 /// skipped whole, and so are the ones after it.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct BehindHair {
     /// ε; 0: off (nothing is ever skipped).
     cutoff: f32,
@@ -84,22 +84,39 @@ pub struct BehindHair {
 impl BehindHair {
     /// For the tile's in-image `pixels` over the opaque depth per pixel.
     pub fn new(cutoff: f32, pixels: Vec<usize>, opaque_depth: &[f32]) -> Self {
+        let mut c = Self {
+            pixels,
+            ..Self::default()
+        };
+        c.start(cutoff, opaque_depth);
+        c
+    }
+
+    /// Starts over (reusing the buffers) for a tile whose in-image pixels
+    /// are the first `w` of each of its first `h` rows of `stride` pixels.
+    pub fn reset(&mut self, cutoff: f32, w: usize, h: usize, stride: usize, opaque_depth: &[f32]) {
+        self.pixels.clear();
+        self.pixels
+            .extend((0..h).flat_map(|j| (0..w).map(move |i| j * stride + i)));
+        self.start(cutoff, opaque_depth);
+    }
+
+    fn start(&mut self, cutoff: f32, opaque_depth: &[f32]) {
         let n = opaque_depth.len();
-        let open = pixels
+        self.cutoff = cutoff;
+        self.transmittance.clear();
+        self.transmittance.resize(n, 1.0);
+        self.z_far.clear();
+        self.z_far.resize(n, 0.0);
+        self.z_hidden.clear();
+        self.z_hidden.extend_from_slice(opaque_depth);
+        self.open = self
+            .pixels
             .iter()
             .filter(|&&k| opaque_depth[k] == f32::INFINITY)
             .count();
-        let mut c = Self {
-            cutoff,
-            transmittance: vec![1.0; n],
-            z_far: vec![0.0; n],
-            z_hidden: opaque_depth.to_vec(),
-            open,
-            tile_far: f32::INFINITY,
-            pixels,
-        };
-        c.update_tile();
-        c
+        self.tile_far = f32::INFINITY;
+        self.update_tile();
     }
 
     /// Whether culling is on.
@@ -131,12 +148,16 @@ impl BehindHair {
         self.transmittance[k] = t;
         self.z_far[k] = self.z_far[k].max(depth);
         if t < self.cutoff && self.z_far[k] < self.z_hidden[k] {
-            let was_open = self.z_hidden[k] == f32::INFINITY;
+            let old = self.z_hidden[k];
             self.z_hidden[k] = self.z_far[k];
-            if was_open {
+            if old == f32::INFINITY {
                 self.open -= 1;
+                self.update_tile();
+            } else if old == self.tile_far {
+                // The farthest pixel came nearer (z_hidden only decreases,
+                // so the maximum changes only when its holder does).
+                self.update_tile();
             }
-            self.update_tile();
         }
     }
 

@@ -56,7 +56,7 @@ use shade::Shader;
 use shadow::ShadowMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
-use tile::{render_tile, TileBins, TileContext, TileResult};
+use tile::{render_tile, TileBins, TileContext, TileMemory, TileResult};
 use view::View;
 
 /// Statistics of one render.
@@ -232,7 +232,7 @@ pub fn render_with_progress(
     let results: Vec<TileResult> = pool().install(|| {
         (0..grid.count())
             .into_par_iter()
-            .map(|ti| {
+            .map_init(TileMemory::default, |mem, ti| {
                 if cancel.load(Ordering::Relaxed) {
                     return TileResult::empty();
                 }
@@ -242,7 +242,7 @@ pub fn render_with_progress(
                     solids: solid_bins.tile(ti),
                 };
                 let (tx, ty) = grid.coords(ti);
-                let r = render_tile(&ctx, &bins, tx, ty);
+                let r = render_tile(&ctx, &bins, tx, ty, mem);
                 done.fetch_add(1, Ordering::Relaxed);
                 r
             })

@@ -107,6 +107,24 @@ impl Layers {
         }
     }
 
+    /// Empties the layers for reuse by a tile of `pixels` pixels in mode
+    /// `k` (as [`Self::new`]); false when they were made for another mode
+    /// or size, and are to be made anew.
+    pub fn reset(&mut self, pixels: usize, k: Option<usize>) -> bool {
+        match (self, k) {
+            (Layers::Mlab(m), Some(k)) if m.k == k.clamp(1, 64) && m.len.len() == pixels => {
+                // Only the first len[px] slots of a pixel are ever read.
+                m.len.fill(0);
+                true
+            }
+            (Layers::Sorted(lists), None) if lists.len() == pixels => {
+                lists.iter_mut().for_each(Vec::clear);
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// Adds to pixel `px` a fragment of radiance `color` with coverage
     /// `alpha` at `depth`.
     #[inline]

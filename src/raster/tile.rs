@@ -64,9 +64,30 @@ impl TileResult {
     }
 }
 
-/// Renders tile `(tx, ty)`.
-pub fn render_tile(ctx: &TileContext<'_>, bins: &TileBins<'_>, tx: u32, ty: u32) -> TileResult {
-    let mut t = Tile::new(ctx, tx, ty);
+/// A tile's buffers, kept by a worker from one tile to the next so that a
+/// frame does not allocate (and first-touch) them once per tile; every
+/// tile starts from them reset, so results do not depend on which tiles a
+/// worker rendered before.
+#[derive(Default)]
+pub struct TileMemory {
+    opaque_depth: Vec<f32>,
+    surface: Vec<Option<Surface>>,
+    layers: Option<Layers>,
+    pending: Pending,
+    hair: Option<BehindHair>,
+    order: Vec<(f32, u32)>,
+    sorted: Vec<u32>,
+}
+
+/// Renders tile `(tx, ty)` in the buffers of `mem`.
+pub fn render_tile(
+    ctx: &TileContext<'_>,
+    bins: &TileBins<'_>,
+    tx: u32,
+    ty: u32,
+    mem: &mut TileMemory,
+) -> TileResult {
+    let mut t = Tile::new(ctx, tx, ty, std::mem::take(mem));
     t.opaque_spheres();
     t.opaque_meshes(bins.solids);
     let behind = BehindOpaque::new(
@@ -78,7 +99,9 @@ pub fn render_tile(ctx: &TileContext<'_>, bins: &TileBins<'_>, tx: u32, ty: u32)
     t.strands(bins.segs, behind);
     t.cards(bins.cards, behind);
     t.shade_pending();
-    t.resolve()
+    let (result, memory) = t.resolve();
+    *mem = memory;
+    result
 }
 
 /// A tile in progress.
@@ -107,6 +130,11 @@ struct Tile<'a> {
     pending: Pending,
     /// Hair culling (MLAB and sorted transparency; see [`BehindHair`]).
     hair: Option<BehindHair>,
+    /// The culling state of an earlier tile, to be reset and reused.
+    spare_hair: Option<BehindHair>,
+    /// Scratch for the front-to-back order of the strand pass.
+    order: Vec<(f32, u32)>,
+    sorted: Vec<u32>,
     fragments: u64,
     culled: u64,
     /// Fragments and segment visits skipped by hair culling.
@@ -114,28 +142,43 @@ struct Tile<'a> {
 }
 
 impl<'a> Tile<'a> {
-    fn new(ctx: &'a TileContext<'a>, tx: u32, ty: u32) -> Self {
+    fn new(ctx: &'a TileContext<'a>, tx: u32, ty: u32, mut mem: TileMemory) -> Self {
         let n = (TILE * TILE) as usize;
         let (x0, y0) = (tx * TILE, ty * TILE);
+        mem.opaque_depth.clear();
+        mem.opaque_depth.resize(n, f32::INFINITY);
+        mem.surface.clear();
+        mem.surface.resize(n, None);
+        let k = match ctx.opts.transparency {
+            Transparency::Mlab(k) => Some(k),
+            Transparency::Sorted | Transparency::Coverage(_) => None,
+        };
+        let layers = match mem.layers.take() {
+            Some(mut l) => {
+                if !l.reset(n, k) {
+                    l = Layers::new(n, k);
+                }
+                l
+            }
+            None => Layers::new(n, k),
+        };
+        mem.pending.clear();
         Self {
             ctx,
             x0,
             y0,
             tw: TILE.min(ctx.view.width - x0),
             th: TILE.min(ctx.view.height - y0),
-            opaque_depth: vec![f32::INFINITY; n],
-            surface: vec![None; n],
-            layers: Layers::new(
-                n,
-                match ctx.opts.transparency {
-                    Transparency::Mlab(k) => Some(k),
-                    Transparency::Sorted | Transparency::Coverage(_) => None,
-                },
-            ),
+            opaque_depth: mem.opaque_depth,
+            surface: mem.surface,
+            layers,
             samples: None,
             deferred: !ctx.opts.vertex_shading && ctx.shader.batches(),
-            pending: Pending::default(),
+            pending: mem.pending,
             hair: None,
+            spare_hair: mem.hair,
+            order: mem.order,
+            sorted: mem.sorted,
             fragments: 0,
             culled: 0,
             hair_culled: 0,
@@ -147,8 +190,10 @@ impl<'a> Tile<'a> {
     fn start_hair_culling(&mut self) {
         let cutoff = self.ctx.opts.hair_cull_transmittance;
         if cutoff > 0.0 && self.samples.is_none() {
-            let px: Vec<usize> = self.pixel_indices().collect();
-            self.hair = Some(BehindHair::new(cutoff, px, &self.opaque_depth));
+            let (tw, th) = (self.tw as usize, self.th as usize);
+            let mut h = self.spare_hair.take().unwrap_or_default();
+            h.reset(cutoff, tw, th, TILE as usize, &self.opaque_depth);
+            self.hair = Some(h);
         }
     }
 
@@ -323,15 +368,18 @@ impl<'a> Tile<'a> {
         let (x0, y0, tw, th) = (self.x0, self.y0, self.tw, self.th);
         let sampled = self.samples.is_some();
         // With hair culling, front to back (nearest depth, then scene order).
-        let sorted: Vec<u32>;
+        let mut sorted = std::mem::take(&mut self.sorted);
         let bin = if self.hair.is_some() {
             let segs = self.ctx.segs;
-            let mut order: Vec<(f32, u32)> = bin
-                .iter()
-                .map(|&si| (segs[si as usize].za.min(segs[si as usize].zb), si))
-                .collect();
+            let order = &mut self.order;
+            order.clear();
+            order.extend(
+                bin.iter()
+                    .map(|&si| (segs[si as usize].za.min(segs[si as usize].zb), si)),
+            );
             order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            sorted = order.into_iter().map(|(_, si)| si).collect();
+            sorted.clear();
+            sorted.extend(order.iter().map(|&(_, si)| si));
             &sorted[..]
         } else {
             bin
@@ -410,6 +458,7 @@ impl<'a> Tile<'a> {
                 }
             }
         }
+        self.sorted = sorted;
     }
 
     /// Card triangles: perspective-correct barycentrics, alpha from the
@@ -548,26 +597,39 @@ impl<'a> Tile<'a> {
         }
     }
 
-    /// The pixels resolved; non-finite pixels become 0 and are counted.
-    fn resolve(mut self) -> TileResult {
+    /// The pixels resolved (non-finite pixels become 0 and are counted),
+    /// and the tile's buffers for the next tile.
+    fn resolve(mut self) -> (TileResult, TileMemory) {
         let mut pixels = vec![0.0f32; (TILE * TILE * 3) as usize];
         let mut non_finite = 0u64;
-        let ks: Vec<usize> = self.pixel_indices().collect();
-        for k in ks {
-            let col = self.pixel(k);
-            if col.is_finite() {
-                pixels[3 * k..3 * k + 3].copy_from_slice(&col.to_array());
-            } else {
-                non_finite += 1;
+        for j in 0..self.th {
+            for i in 0..self.tw {
+                let k = (j * TILE + i) as usize;
+                let col = self.pixel(k);
+                if col.is_finite() {
+                    pixels[3 * k..3 * k + 3].copy_from_slice(&col.to_array());
+                } else {
+                    non_finite += 1;
+                }
             }
         }
-        TileResult {
+        let result = TileResult {
             pixels,
             fragments: self.fragments,
             non_finite,
             culled: self.culled,
             hair_culled: self.hair_culled,
-        }
+        };
+        let memory = TileMemory {
+            opaque_depth: self.opaque_depth,
+            surface: self.surface,
+            layers: Some(self.layers),
+            pending: self.pending,
+            hair: self.hair.or(self.spare_hair),
+            order: self.order,
+            sorted: self.sorted,
+        };
+        (result, memory)
     }
 }
 
@@ -594,6 +656,16 @@ struct Pending {
 }
 
 impl Pending {
+    fn clear(&mut self) {
+        self.k.clear();
+        self.depth.clear();
+        self.alpha.clear();
+        self.p.clear();
+        self.t.clear();
+        self.fiber.clear();
+        self.color.clear();
+    }
+
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn push(&mut self, k: usize, depth: f32, alpha: f32, p: Vec3, t: Vec3, fiber: Fiber) {
