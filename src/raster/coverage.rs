@@ -181,9 +181,20 @@ pub fn on_stretch(s: &Segment, t_raw: f32, has_length: bool) -> Option<f32> {
     (inside || !has_length).then(|| t_raw.clamp(0.0, 1.0))
 }
 
-/// Coverage of pixel center `p` by segment `s`, and the screen parameter t.
-#[inline]
+/// Coverage of pixel center `p` by segment `s`, and the screen parameter t
+/// (what the tile's strand pass computes in two steps, depth tests between).
+#[cfg(test)]
 pub fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
+    let t = stretch_param(s, p)?;
+    let cov = coverage_at(s, p, t);
+    (cov > 0.0).then_some((cov, t))
+}
+
+/// The screen parameter t along segment `s` of the centre-line point
+/// nearest pixel center `p`, or None where `p` belongs to a neighbouring
+/// segment ([`on_stretch`]).
+#[inline]
+pub fn stretch_param(s: &Segment, p: [f32; 2]) -> Option<f32> {
     let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
     let len2 = d[0] * d[0] + d[1] * d[1];
     let t_raw = if len2 > 0.0 {
@@ -191,7 +202,15 @@ pub fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
     } else {
         0.0
     };
-    let t = on_stretch(s, t_raw, len2 > 0.0)?;
+    on_stretch(s, t_raw, len2 > 0.0)
+}
+
+/// Coverage of pixel center `p` by segment `s` at the parameter `t` of
+/// its nearest centre-line point (0 where it does not reach `p`): a box
+/// filter of one pixel over the strand's width there.
+#[inline]
+pub fn coverage_at(s: &Segment, p: [f32; 2], t: f32) -> f32 {
+    let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
     let c = [s.a[0] + t * d[0], s.a[1] + t * d[1]];
     let dist = ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt();
     let mut w = s.wa + (s.wb - s.wa) * t;
@@ -201,8 +220,7 @@ pub fn coverage(s: &Segment, p: [f32; 2]) -> Option<(f32, f32)> {
         scale = w.max(0.0);
         w = 1.0;
     }
-    let cov = (0.5 * w + 0.5 - dist).clamp(0.0, 1.0) * scale;
-    (cov > 0.0).then_some((cov, t))
+    (0.5 * w + 0.5 - dist).clamp(0.0, 1.0) * scale
 }
 
 #[cfg(test)]

@@ -65,57 +65,66 @@ impl BehindOpaque {
 /// their nearest depth (what the tile does when culling is on) makes
 /// `z_sat` tight, and once every pixel is saturated or behind opaque
 /// geometry, a segment whose nearest depth is behind all of them is
-/// skipped whole, and so are the ones after it.
+/// skipped whole, and so are the ones after it; likewise a segment's row
+/// of pixels once every pixel of that tile row is hidden nearer.
 #[derive(Debug, Clone, Default)]
 pub struct BehindHair {
     /// ε; 0: off (nothing is ever skipped).
     cutoff: f32,
+    /// Pixels per tile row (pixel k lies in row k / stride), and the
+    /// in-image part: the first `w` pixels of the first `h` rows.
+    stride: usize,
+    w: usize,
+    h: usize,
     transmittance: Vec<f32>,
     z_far: Vec<f32>,
     /// Depth behind which pixel k is hidden: `z_sat`, or the opaque depth.
     z_hidden: Vec<f32>,
-    /// In-image pixels not yet hidden (by hair or opaque geometry).
-    open: usize,
-    /// The farthest `z_hidden` over the tile once `open` is 0, else ∞.
+    /// Per tile row: in-image pixels not yet hidden (by hair or opaque
+    /// geometry), and the farthest `z_hidden` once there are none, else ∞.
+    row_open: Vec<u32>,
+    row_far: Vec<f32>,
+    /// Rows with open pixels.
+    open_rows: usize,
+    /// The farthest `row_far` once no row has open pixels, else ∞.
     tile_far: f32,
-    pixels: Vec<usize>,
 }
 
 impl BehindHair {
-    /// For the tile's in-image `pixels` over the opaque depth per pixel.
-    pub fn new(cutoff: f32, pixels: Vec<usize>, opaque_depth: &[f32]) -> Self {
-        let mut c = Self {
-            pixels,
-            ..Self::default()
-        };
-        c.start(cutoff, opaque_depth);
+    /// For a tile of `h` rows of `stride` pixels, of which the first `w`
+    /// of each are in the image, over the opaque depth per pixel.
+    pub fn new(cutoff: f32, w: usize, h: usize, stride: usize, opaque_depth: &[f32]) -> Self {
+        let mut c = Self::default();
+        c.reset(cutoff, w, h, stride, opaque_depth);
         c
     }
 
-    /// Starts over (reusing the buffers) for a tile whose in-image pixels
-    /// are the first `w` of each of its first `h` rows of `stride` pixels.
+    /// Starts over for a new tile (as [`Self::new`], reusing the buffers).
     pub fn reset(&mut self, cutoff: f32, w: usize, h: usize, stride: usize, opaque_depth: &[f32]) {
-        self.pixels.clear();
-        self.pixels
-            .extend((0..h).flat_map(|j| (0..w).map(move |i| j * stride + i)));
-        self.start(cutoff, opaque_depth);
-    }
-
-    fn start(&mut self, cutoff: f32, opaque_depth: &[f32]) {
         let n = opaque_depth.len();
-        self.cutoff = cutoff;
+        (self.cutoff, self.w, self.h, self.stride) = (cutoff, w, h, stride);
         self.transmittance.clear();
         self.transmittance.resize(n, 1.0);
         self.z_far.clear();
         self.z_far.resize(n, 0.0);
         self.z_hidden.clear();
         self.z_hidden.extend_from_slice(opaque_depth);
-        self.open = self
-            .pixels
-            .iter()
-            .filter(|&&k| opaque_depth[k] == f32::INFINITY)
-            .count();
+        self.row_open.clear();
+        self.row_far.clear();
+        for j in 0..h {
+            let row = &opaque_depth[j * stride..j * stride + w];
+            self.row_open
+                .push(row.iter().filter(|&&z| z == f32::INFINITY).count() as u32);
+            self.row_far.push(f32::INFINITY);
+        }
+        self.open_rows = h;
         self.tile_far = f32::INFINITY;
+        for j in 0..h {
+            if self.row_open[j] == 0 {
+                self.open_rows -= 1;
+                self.update_row(j);
+            }
+        }
         self.update_tile();
     }
 
@@ -129,6 +138,13 @@ impl BehindHair {
     #[inline]
     pub fn hides(&self, k: usize, depth: f32) -> bool {
         depth > self.z_hidden[k]
+    }
+
+    /// Whether a primitive whose nearest depth is `z_min` is hidden at
+    /// every pixel of tile row `j` (only once every pixel of it is hidden).
+    #[inline]
+    pub fn hides_row(&self, j: usize, z_min: f32) -> bool {
+        z_min > self.row_far[j]
     }
 
     /// Whether a primitive whose nearest depth is `z_min` is hidden at
@@ -150,24 +166,34 @@ impl BehindHair {
         if t < self.cutoff && self.z_far[k] < self.z_hidden[k] {
             let old = self.z_hidden[k];
             self.z_hidden[k] = self.z_far[k];
+            let j = k / self.stride;
+            // z_hidden only decreases, so a row's (and the tile's) farthest
+            // depth changes only when its holder does.
             if old == f32::INFINITY {
-                self.open -= 1;
-                self.update_tile();
-            } else if old == self.tile_far {
-                // The farthest pixel came nearer (z_hidden only decreases,
-                // so the maximum changes only when its holder does).
-                self.update_tile();
+                self.row_open[j] -= 1;
+                if self.row_open[j] == 0 {
+                    self.open_rows -= 1;
+                    self.update_row(j);
+                    self.update_tile();
+                }
+            } else if old == self.row_far[j] {
+                let row_old = self.row_far[j];
+                self.update_row(j);
+                if row_old == self.tile_far {
+                    self.update_tile();
+                }
             }
         }
     }
 
+    fn update_row(&mut self, j: usize) {
+        let row = &self.z_hidden[j * self.stride..j * self.stride + self.w];
+        self.row_far[j] = row.iter().copied().fold(0.0, f32::max);
+    }
+
     fn update_tile(&mut self) {
-        if self.open == 0 && self.on() {
-            self.tile_far = self
-                .pixels
-                .iter()
-                .map(|&k| self.z_hidden[k])
-                .fold(0.0, f32::max);
+        if self.open_rows == 0 && self.on() {
+            self.tile_far = self.row_far.iter().copied().fold(0.0, f32::max);
         }
     }
 }
@@ -316,7 +342,7 @@ mod tests {
                     })
                     .collect();
                 let background = Vec3::new(rnd(), rnd(), rnd());
-                let mut cull = BehindHair::new(cutoff, vec![0], &[f32::INFINITY]);
+                let mut cull = BehindHair::new(cutoff, 1, 1, 1, &[f32::INFINITY]);
                 let mut kept = Vec::new();
                 for f in &frags {
                     if cull.hides(0, f.depth) {

@@ -6,7 +6,7 @@
 //! transparency layers composited over the opaque surface).
 
 use super::bin::TILE;
-use super::coverage::{coverage, ray_sphere, triangle_pixels, RowSpan, Tri2};
+use super::coverage::{coverage_at, ray_sphere, stretch_param, triangle_pixels, RowSpan, Tri2};
 use super::cull::{BehindHair, BehindOpaque};
 use super::oit::Layers;
 use super::samples::{strand_covers, unit, SampleBuffer, SamplePoints};
@@ -412,7 +412,15 @@ impl<'a> Tile<'a> {
             let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
             let len2 = d[0] * d[0] + d[1] * d[1];
             let inv_len2 = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
+            let z_min = s.za.min(s.zb);
             for j in by0..=by1 as u32 {
+                if self
+                    .hair
+                    .as_ref()
+                    .is_some_and(|h| h.hides_row(j as usize, z_min))
+                {
+                    continue;
+                }
                 let py = (y0 + j) as f32 + 0.5;
                 let Some((lo, hi)) = span.pixels(py, x0, bx0, bx1 as u32) else {
                     continue;
@@ -420,24 +428,29 @@ impl<'a> Tile<'a> {
                 for i in lo..=hi {
                     let k = (j * TILE + i) as usize;
                     let pc = [(x0 + i) as f32 + 0.5, py];
-                    let found = if sampled {
-                        // Shading point and depth at the centre line's point
-                        // nearest the pixel centre.
+                    // The parameter of the centre line's point nearest the
+                    // pixel centre: clamped (coverage samples), or on this
+                    // segment's stretch of the strand (analytic coverage).
+                    let t = if sampled {
                         let t_raw = ((pc[0] - s.a[0]) * d[0] + (pc[1] - s.a[1]) * d[1]) * inv_len2;
-                        Some((0.0, t_raw.clamp(0.0, 1.0)))
+                        t_raw.clamp(0.0, 1.0)
                     } else {
-                        coverage(s, pc)
+                        match stretch_param(s, pc) {
+                            Some(t) => t,
+                            None => continue,
+                        }
                     };
-                    let Some((cov, t)) = found else {
-                        continue;
-                    };
-                    // Perspective-correct depth and world position.
+                    // Perspective-correct depth; depth tests before coverage.
                     let inv = (1.0 - t) / s.za + t / s.zb;
                     let depth = 1.0 / inv;
                     if !(depth > view.near && depth < self.opaque_depth[k]) {
                         continue;
                     }
                     if self.hidden_by_hair(k, depth) {
+                        continue;
+                    }
+                    let cov = if sampled { 0.0 } else { coverage_at(s, pc, t) };
+                    if !sampled && !(cov > 0.0) {
                         continue;
                     }
                     let tw_ = (t / s.zb) / inv;
