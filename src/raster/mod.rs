@@ -228,6 +228,7 @@ pub fn render_with_progress(
         segs: &segs,
         cards: &cards,
         solids: &solids,
+        uniform_background: tile::uniform_background(scene, opts),
     };
     let results: Vec<TileResult> = pool().install(|| {
         (0..grid.count())

@@ -27,6 +27,23 @@ pub struct TileContext<'a> {
     pub segs: &'a [Segment],
     pub cards: &'a [CardTri],
     pub solids: &'a [SolidTri],
+    /// The background's radiance where it is the same along every ray
+    /// (no environment, or a constant one); None: per pixel.
+    pub uniform_background: Option<Vec3>,
+}
+
+/// The background's radiance when no pixel's ray changes it: the constant
+/// background without an environment, or an environment whose SH has only
+/// the constant band (its value is then the same in every direction, bit
+/// for bit: the other bands add zeros).
+pub fn uniform_background(scene: &Scene, opts: &RenderOptions) -> Option<Vec3> {
+    match &scene.environment {
+        None => Some(opts.background),
+        Some(env) if env.sh[1..].iter().all(|c| c.iter().all(|&x| x == 0.0)) => {
+            Some(Vec3::from(sh9_eval(&env.sh, &[0.0, 0.0, 1.0])).max(Vec3::ZERO))
+        }
+        Some(_) => None,
+    }
 }
 
 /// The primitives binned to one tile (indices, in scene order).
@@ -255,14 +272,15 @@ impl<'a> Tile<'a> {
     fn base(&self, k: usize) -> Vec3 {
         match &self.surface[k] {
             Some(s) => shade_diffuse(self.ctx.shader, s.p, s.n, s.albedo),
-            None => match &self.ctx.scene.environment {
-                Some(env) => {
+            None => match (self.ctx.uniform_background, &self.ctx.scene.environment) {
+                (Some(c), _) => c,
+                (None, Some(env)) => {
                     let (i, j) = ((k as u32 % TILE) as i64, (k as u32 / TILE) as i64);
                     let p = self.center(i, j);
                     let ray = self.ctx.view.ray(p[0], p[1]);
                     Vec3::from(sh9_eval(&env.sh, &ray.to_array())).max(Vec3::ZERO)
                 }
-                None => self.ctx.opts.background,
+                (None, None) => self.ctx.opts.background,
             },
         }
     }
