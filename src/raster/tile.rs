@@ -6,11 +6,13 @@
 //! transparency layers composited over the opaque surface).
 
 use super::bin::TILE;
-use super::coverage::{coverage_at, ray_sphere, stretch_param, triangle_pixels, RowSpan, Tri2};
+use super::coverage::{
+    coverage_at, ray_sphere, stretch_param, triangle_pixels, RayCone, RowSpan, Tri2,
+};
 use super::cull::{BehindHair, BehindOpaque};
 use super::oit::Layers;
 use super::samples::{strand_covers, unit, SampleBuffer, SamplePoints};
-use super::scene::{RenderOptions, Scene, Transparency};
+use super::scene::{RenderOptions, Scene, Sphere, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
 use super::shade::{shade_diffuse, Fiber, Shader, ShadowMaps};
 use super::view::View;
@@ -243,12 +245,21 @@ impl<'a> Tile<'a> {
         if scene.spheres.is_empty() {
             return;
         }
+        let cone = RayCone::through_pixels(view, self.x0, self.y0, self.tw, self.th);
+        let seen: Vec<&Sphere> = scene
+            .spheres
+            .iter()
+            .filter(|s| cone.may_hit(view.eye, s.center, s.radius))
+            .collect();
+        if seen.is_empty() {
+            return;
+        }
         for j in 0..self.th {
             for i in 0..self.tw {
                 let k = (j * TILE + i) as usize;
                 let p = self.center(i as i64, j as i64);
                 let ray = view.ray(p[0], p[1]);
-                for s in &scene.spheres {
+                for s in &seen {
                     if let Some(t) = ray_sphere(view.eye, ray, s.center, s.radius) {
                         let depth = t * ray.dot(view.forward);
                         if depth < self.opaque_depth[k] && depth > view.near {
