@@ -348,7 +348,7 @@ mod tests {
             (state.wrapping_mul(0x2545F4914F6CDD1D) >> 40) as f32 / (1u64 << 24) as f32
         };
         let (mut hits, mut skipped) = (0u64, 0u64);
-        let mut v3 = |rnd: &mut dyn FnMut() -> f32, s: f32| {
+        let v3 = |rnd: &mut dyn FnMut() -> f32, s: f32| {
             Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * s
         };
         for _ in 0..300 {
