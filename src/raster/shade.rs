@@ -414,17 +414,31 @@ impl<'a> Shader<'a> {
 
     /// The fraction of light `li` that reaches an opaque surface point `p`
     /// through the hair (RGB), where the shadow map does not hold hair:
-    /// with the `traced` shadow model 0 or 1 by a ray; with the `density`
-    /// model from the fiber count, under dual scattering all the light the
-    /// fibers pass on, scattered or not (`e^{-n(1 - a_f)}`, a_f at normal
-    /// incidence: a diffuse surface does not see the spread), otherwise the
-    /// unscattered part `e^{-n}`. Other models: 1 (the map holds hair).
+    /// with the `traced` shadow model 0 or 1 by a ray, plus under dual
+    /// scattering what the fibers on the way scatter forward
+    /// (`c·(e^{-n(1 - a_f)} − e^{-n})`, from the fiber count); with the
+    /// `density` model from the fiber count, under dual scattering all the
+    /// light the fibers pass on, scattered or not (`c·e^{-n(1 - a_f)}`),
+    /// otherwise the unscattered part `c·e^{-n}` (a_f at normal incidence:
+    /// a diffuse surface does not see the spread; c: the fraction of the
+    /// way clear of opaque geometry). Other models: 1 (the map holds hair).
     pub fn hair_transmittance(&self, li: usize, p: Vec3) -> Vec3 {
+        let count = self.counts.get(li).and_then(Option::as_ref);
         if self.traced.is_some() {
             let blocked = self.traced_occluded(li, p, &Fiber::NONE);
-            return if blocked { Vec3::ZERO } else { Vec3::ONE };
+            let unscattered = if blocked { Vec3::ZERO } else { Vec3::ONE };
+            return match (&self.dual, count) {
+                (Some((dual, _)), Some(count)) => {
+                    let (n, clear) = count.at(p);
+                    let a_f = Vec3::from(dual.terms(0.0).a_f);
+                    let scattered =
+                        ((-(Vec3::ONE - a_f) * n).exp() - Vec3::splat((-n).exp())).max(Vec3::ZERO);
+                    unscattered + scattered * clear
+                }
+                _ => unscattered,
+            };
         }
-        let Some(count) = self.counts.get(li).and_then(Option::as_ref) else {
+        let Some(count) = count else {
             return Vec3::ONE;
         };
         if !self.count_shadows {

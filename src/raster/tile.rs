@@ -296,6 +296,24 @@ impl<'a> Tile<'a> {
         }
     }
 
+    /// The opaque surface of pixel `k` shaded where the ray through image
+    /// point `xy` of that pixel meets its tangent plane (within a pixel's
+    /// footprint of the surface point found at the centre).
+    fn surface_at(&self, k: usize, xy: [f32; 2]) -> Vec3 {
+        let Some(s) = &self.surface[k] else {
+            return Vec3::ZERO;
+        };
+        let view = self.ctx.view;
+        let ray = view.ray(xy[0], xy[1]);
+        let facing = ray.dot(s.n);
+        let p = if facing < -1e-3 {
+            view.eye + ray * ((s.p - view.eye).dot(s.n) / facing)
+        } else {
+            s.p
+        };
+        shade_diffuse(self.ctx.shader, p, s.n, s.albedo)
+    }
+
     /// Opaque mesh triangles: nearest depth and diffuse shading per pixel
     /// (two-sided: the normal faces the camera).
     fn opaque_meshes(&mut self, bin: &[u32]) {
@@ -614,12 +632,19 @@ impl<'a> Tile<'a> {
     /// behind).
     fn pixel(&mut self, k: usize) -> Vec3 {
         match &self.samples {
-            Some((_, buf)) => {
+            Some((pts, buf)) => {
+                // Traced shadows are exact per point: an opaque surface is
+                // then shaded where each uncovered sample sees it, not once
+                // at the pixel centre (a fiber's shadow is thinner than a
+                // pixel; one point made it 0 or 1 for the whole pixel).
+                let per_sample = self.surface[k].is_some()
+                    && self.ctx.opts.shadow_model == super::shadow::ShadowModel::Traced;
                 let mut c = Vec3::ZERO;
                 let mut uncovered = 0u32;
-                for o in buf.owners(k) {
+                for (o, xy) in buf.owners(k).zip(pts.pixel(k)) {
                     match o {
                         Some(i) => c += self.pending.color[i as usize],
+                        None if per_sample => c += self.surface_at(k, *xy),
                         None => uncovered += 1,
                     }
                 }
