@@ -1,0 +1,211 @@
+//! Per-vertex shading: the radiance at strand vertices, for segments that
+//! interpolate it (`render.shading = "vertex"`).
+
+use super::{Fiber, Shader};
+use crate::raster::scene::Scene;
+use crate::threads::pool;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Radiance shaded at the strand vertices where `needed` is set (all when
+/// `None`; 0 elsewhere), for per-vertex shading. Tangent: the central
+/// difference.
+pub fn shade_vertices(
+    scene: &Scene,
+    shader: &Shader<'_>,
+    eye: Vec3,
+    needed: Option<&[bool]>,
+) -> Vec<Vec3> {
+    let st = &scene.strands;
+    let mut owner = vec![0usize; st.points.len()];
+    for s in 0..st.strand_count() {
+        for o in &mut owner[st.offsets[s] as usize..st.offsets[s + 1] as usize] {
+            *o = s;
+        }
+    }
+    let tangent = |i: usize| {
+        let s = owner[i];
+        let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+        let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
+        (b - a).normalize_or_zero()
+    };
+    let fiber = |i: usize| Fiber {
+        radius: st.radii[i],
+        strand: owner[i] as u32,
+        segment: (i - owner[i]) as u32,
+    };
+    // The vertices to shade, as indices into the strands' points.
+    let index: Vec<usize> = match needed {
+        Some(m) => (0..st.points.len()).filter(|&i| m[i]).collect(),
+        None => (0..st.points.len()).collect(),
+    };
+    let points: Vec<Vec3> = index.iter().map(|&i| st.points[i]).collect();
+    let shaded = shader
+        .shade_batch(&points, &|j| tangent(index[j]), &|j| fiber(index[j]), eye)
+        .unwrap_or_else(|| {
+            pool().install(|| {
+                index
+                    .par_iter()
+                    .map(|&i| {
+                        let p = st.points[i];
+                        shader.shade(p, tangent(i), (eye - p).normalize_or_zero(), fiber(i))
+                    })
+                    .collect()
+            })
+        });
+    if needed.is_none() {
+        return shaded;
+    }
+    let mut out = vec![Vec3::ZERO; st.points.len()];
+    for (&i, c) in index.iter().zip(shaded) {
+        out[i] = c;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fiber::karis::KarisParams;
+    use crate::raster::scene::{
+        Camera, Cards, Environment, HairShading, Light, RenderOptions, Strands,
+    };
+    use crate::raster::setup::{scene_bounds, world_segments};
+    use crate::raster::shadow::ShadowMap;
+    use std::sync::Arc;
+
+    /// 1. Per-vertex shading on the vector kernel (one batch per light and
+    ///    one for the environment) against the per-point scalar path, with
+    ///    a shadowed directional light, a point light, an SH environment and
+    ///    the MS block on: equal to 1e-4 relative + 1e-7 absolute (the
+    ///    vector kernel's rounding; `fiber::karis::simd` test 1 bounds it
+    ///    against f64). Shading a subset of the vertices (frustum culling)
+    ///    gives the same bits for them. The same for ChiangHair's tabulated
+    ///    far field (`fiber::chiang::table_simd` test 1: 1.1e-5 relative
+    ///    against the scalar look-up).
+    #[test]
+    fn t01_batched_vertex_shading_matches_per_point_shading() {
+        let karis = HairShading::Karis(
+            KarisParams {
+                scatter: 0.4,
+                ..Default::default()
+            }
+            .build()
+            .unwrap(),
+        );
+        let m: crate::fiber::ChiangHair<f64> =
+            crate::fiber::ChiangParams::default().build().unwrap();
+        let size = crate::fiber::chiang::TableSize::for_scale(m.logistic_scale());
+        let chiang = HairShading::ChiangFar(Arc::new(crate::fiber::chiang::ChiangFarTable::new(
+            &m, size,
+        )));
+        for hair in [karis, chiang] {
+            batched_matches_per_point(hair);
+        }
+    }
+
+    fn batched_matches_per_point(hair: HairShading) {
+        let mut points = Vec::new();
+        let mut offsets = vec![0u32];
+        for s in 0..40 {
+            let a = s as f32 * 0.37;
+            for k in 0..12 {
+                let y = k as f32 * 0.08;
+                points.push(Vec3::new(
+                    a.cos() * (0.3 + 0.02 * k as f32),
+                    y,
+                    a.sin() * 0.3 + 0.01 * y * y,
+                ));
+            }
+            offsets.push(points.len() as u32);
+        }
+        let mut sh = [[0.0f32; 3]; 9];
+        sh[0] = [0.8, 0.8, 0.9];
+        sh[2] = [0.3, 0.2, 0.1];
+        sh[5] = [-0.2, 0.1, 0.0];
+        let scene = Scene {
+            camera: Camera {
+                position: Vec3::new(0.0, 0.5, 3.0),
+                target: Vec3::new(0.0, 0.5, 0.0),
+                up: Vec3::Y,
+                fov_y: 40.0,
+                width: 64,
+                height: 64,
+            },
+            lights: vec![
+                Light::Directional {
+                    direction: Vec3::new(0.5, 0.7, 0.5).normalize(),
+                    intensity: Vec3::splat(3.0),
+                    shadows: true,
+                },
+                Light::Point {
+                    position: Vec3::new(-1.0, 1.0, 1.0),
+                    intensity: Vec3::new(2.0, 1.5, 1.0),
+                    shadows: false,
+                },
+            ],
+            environment: Some(Environment { sh }),
+            strands: Strands {
+                radii: vec![0.004; points.len()],
+                points,
+                offsets,
+            },
+            cards: Cards::default(),
+            spheres: Vec::new(),
+            triangles: Vec::new(),
+            hair,
+        };
+        let opts = RenderOptions::default();
+        let bounds = scene_bounds(&scene);
+        let world = world_segments(&scene.strands);
+        let shadows: Vec<_> = scene
+            .lights
+            .iter()
+            .map(|l| ShadowMap::build(l, &scene, &world, bounds, &opts).map(Arc::new))
+            .collect();
+        let opts = RenderOptions {
+            light_cull_threshold: 0.0,
+            ..Default::default()
+        };
+        let shader = Shader::new(&scene, &shadows, vec![None; 2], None, None, None, &opts);
+        let eye = scene.camera.position;
+        let batched = shade_vertices(&scene, &shader, eye, None);
+        let st = &scene.strands;
+        // A subset of the vertices shades to the same bits (each SIMD lane
+        // depends on its own inputs only), and the rest to 0.
+        let needed: Vec<bool> = (0..st.points.len()).map(|i| i % 3 != 1).collect();
+        let subset = shade_vertices(&scene, &shader, eye, Some(&needed));
+        for i in 0..st.points.len() {
+            let want = if needed[i] { batched[i] } else { Vec3::ZERO };
+            assert_eq!(subset[i], want, "vertex {i}");
+        }
+        let mut shadowed = 0;
+        for s in 0..st.strand_count() {
+            let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+            for i in i0..i1 {
+                let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
+                let p = st.points[i];
+                let fiber = Fiber {
+                    radius: st.radii[i],
+                    strand: s as u32,
+                    segment: (i - s) as u32,
+                };
+                let want = shader.shade(
+                    p,
+                    (b - a).normalize_or_zero(),
+                    (eye - p).normalize_or_zero(),
+                    fiber,
+                );
+                let got = batched[i];
+                for c in 0..3 {
+                    assert!(
+                        (got[c] - want[c]).abs() <= 1e-4 * want[c].abs() + 1e-7,
+                        "vertex {i} channel {c}: {got} vs {want}"
+                    );
+                }
+                shadowed += (shadows[0].as_ref().unwrap().visibility(p) < 1.0) as usize;
+            }
+        }
+        assert!(shadowed > 0, "the test should exercise shadowed vertices");
+    }
+}
