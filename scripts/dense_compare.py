@@ -33,6 +33,9 @@ CONFIGS = {
     # fragments shaded), render.samples = 16.
     "coverage, none, traced shadows": dict(transparency="coverage", multiple_scattering="none", shadow_model="traced"),
     "coverage, dual, opacity shadows": dict(transparency="coverage", multiple_scattering="dual", shadow_model="opacity"),
+    "coverage, dual, traced shadows, no sphere bounce": dict(
+        transparency="coverage", multiple_scattering="dual", shadow_model="traced", sphere_bounce=False
+    ),
     "coverage, dual, traced shadows": dict(transparency="coverage", multiple_scattering="dual", shadow_model="traced"),
 }
 PICTURE = ("none", "coverage, dual, traced shadows")

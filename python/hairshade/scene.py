@@ -56,7 +56,10 @@ A scene file::
   or ``dual`` (ChiangHair only: dual scattering through the density grid,
   Zinke et al. 2008, tables integrated from the material's far field; see
   ``ChiangHair.dual_terms``); ``dual_forward_density`` and
-  ``dual_back_density`` (0 to 1, default 0.7) are its d_f and d_b.
+  ``dual_back_density`` (0 to 1, default 0.7) are its d_f and d_b;
+  ``sphere_bounce`` (boolean, default true) adds, under dual scattering,
+  the light opaque spheres (a head) reflect back into the hair of what the
+  fibers let through to them (ignored otherwise).
 - ``render.shading``: ``pixel`` (default: every strand fragment shaded) or
   ``vertex`` (strands shaded once per vertex and interpolated along each
   segment; cards are always shaded per pixel).
@@ -82,7 +85,8 @@ A scene file::
   ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
   culling switches, ``light_cull_threshold``, ``density_resolution``,
   ``multiple_scattering``, ``dual_forward_density``,
-  ``dual_back_density``, ``environment_directions``, ``lod``); their types and ranges are
+  ``dual_back_density``, ``sphere_bounce``, ``environment_directions``,
+  ``lod``); their types and ranges are
   checked by the renderer itself (``hairshade._native.render_options``), the
   one place they are defined.
 - Every field is checked on load; an error names the file, the field's path

@@ -437,6 +437,11 @@ impl DensityGrid {
 }
 
 impl FiberCount {
+    /// The grid's voxel edge.
+    pub fn voxel(&self) -> f32 {
+        self.voxel
+    }
+
     /// [`Self::at`] at a point of a fiber of radius `r` and unit tangent
     /// `t`, for the light towards unit `d`, with the fiber's own share left
     /// out: the grid holds every fiber's cross-section, this one's too, and

@@ -32,6 +32,7 @@
 //! the image (they are replaced by 0 and counted).
 
 pub mod bin;
+pub mod bounce;
 pub mod coverage;
 pub mod cull;
 pub mod density;
@@ -179,7 +180,8 @@ pub fn render_with_progress(
         env_lights,
         Some(cancel),
         opts,
-    );
+    )
+    .with_sphere_bounce(opts);
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();

@@ -241,6 +241,9 @@ pub struct RenderOptions {
     /// (local back scattering) of dual scattering.
     pub dual_forward_density: f32,
     pub dual_back_density: f32,
+    /// Under dual scattering, the light opaque spheres reflect into the
+    /// hair ([`super::bounce`]).
+    pub sphere_bounce: bool,
     /// Quadrature directions of the environment light for far-field models
     /// ([`super::env_light`]).
     pub environment_directions: usize,
@@ -286,6 +289,7 @@ impl Default for RenderOptions {
             multiple_scattering: None,
             dual_forward_density: 0.7,
             dual_back_density: 0.7,
+            sphere_bounce: true,
             environment_directions: super::env_light::DIRECTIONS,
             lod: super::lod::Lod::default(),
             hair_cull_transmittance: 1e-3,

@@ -93,6 +93,8 @@ pub struct Shader<'a> {
     traced: Option<SegmentGrid>,
     /// The environment as directional lights (ChiangHair, DEonHair).
     env_lights: Option<super::env_light::EnvLights>,
+    /// Light the opaque spheres reflect into the hair (dual scattering).
+    bounce: Option<super::bounce::SphereBounce>,
     /// The render's cancel flag: once set, shading returns 0 at once (the
     /// render is discarded), so that a slow model (converged DEonHair,
     /// about 1 ms a fragment) stops within a fragment, not a tile.
@@ -165,12 +167,28 @@ impl<'a> Shader<'a> {
             count_shadows: opts.shadow_model == super::shadow::ShadowModel::Density,
             traced,
             env_lights,
+            bounce: None,
             cancel,
             f_max,
             cull_threshold,
             culled: Default::default(),
             culled_max_bits: Default::default(),
         }
+    }
+
+    /// With the light opaque spheres reflect into the hair, under dual
+    /// scattering when `opts.sphere_bounce` is on (see [`super::bounce`]).
+    pub fn with_sphere_bounce(mut self, opts: &RenderOptions) -> Self {
+        if let (true, Some((dual, _))) = (opts.sphere_bounce, &self.dual) {
+            self.bounce = super::bounce::SphereBounce::new(
+                self.scene,
+                &self.counts,
+                self.env_lights.as_ref(),
+                dual,
+                opts.density_resolution,
+            );
+        }
+        self
     }
 
     /// Whether the render was cancelled.
@@ -545,6 +563,11 @@ impl<'a> Shader<'a> {
         self.flush(tally);
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             out += Vec3::from(m.dispatch(EnvOne { v, t, sh: &env.sh }));
+        }
+        if let (Some(bounce), Some((dual, _)), HairShading::ChiangFar(c)) =
+            (&self.bounce, &self.dual, &self.hair)
+        {
+            out += bounce.radiance(c, dual, p, fiber.radius, t, v);
         }
         out
     }
