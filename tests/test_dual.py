@@ -132,25 +132,27 @@ def test_06_dual_against_path_tracing():
     assert np.abs(ratio - 1).max() < 0.3, ratio
 
 
-# Coverage samples, dual scattering (with the light the head reflects into
-# the hair, render.sphere_bounce) and traced shadows against the four
-# converged references, measured (ratio = mean radiance per channel over the
-# truth's; docs/dense_hair.md has every configuration):
-#   scene        ratio R/G/B            relMSE    (without the head's bounce)
-#   auburn_key   0.869 0.932 1.006      9.55e-4   1.41e-3, 0.758/0.882/0.991
-#   blond_back   1.013 1.013 1.037      2.20e-2   2.29e-2, 0.910/0.937/0.988
-#   black_top    0.881 0.896 0.900      1.25e-3   1.33e-3, 0.824/0.868/0.879
-#   brown_side   1.083 1.163 1.131      2.10e-3   2.12e-3, 1.043/1.147/1.126
-# The references' own noise (halves) is 2e-5 to 5e-4 relMSE. Gates: relMSE
-# at most 1.25x the measurement; every channel within 3 points of its
-# measured deviation from the truth; and the hue kept: the largest over the
-# smallest channel ratio at most 1.2 (measured up to 1.16, auburn; the
-# default render: up to 1.86, brown).
+# Coverage samples (the near field per sample), dual scattering (with the
+# light the head reflects into the hair, render.sphere_bounce) and traced
+# shadows against the four converged references, measured (ratio = mean
+# radiance per channel over the truth's; docs/dense_hair.md has every
+# configuration):
+#   scene        ratio R/G/B            relMSE    (far field only: relMSE, ratio)
+#   auburn_key   0.860 0.939 1.031      2.12e-3   9.62e-4, 0.853/0.922/1.002
+#   blond_back   0.948 0.938 0.946      1.94e-2   2.20e-2, 1.011/1.011/1.035
+#   black_top    0.937 0.967 0.975      4.62e-3   1.26e-3, 0.876/0.893/0.897
+#   brown_side   1.084 1.179 1.172      6.00e-3   2.10e-3, 1.080/1.162/1.130
+# (the near field's relMSE is mostly its sampling noise at 16 samples: 64
+# give black_top 1.4e-3.) The references' own noise (halves) is 2e-5 to
+# 5e-4 relMSE. Gates: relMSE at most 1.25x the measurement; every channel
+# within 3 points of its measured deviation from the truth; and the hue
+# kept: the largest over the smallest channel ratio at most 1.25 (measured
+# up to 1.20, auburn; the default render: up to 1.86, brown).
 DENSE_COVERAGE = {
-    "auburn_key": (9.55e-4, (0.869, 0.932, 1.006)),
-    "blond_back": (2.20e-2, (1.013, 1.013, 1.037)),
-    "black_top": (1.25e-3, (0.881, 0.896, 0.900)),
-    "brown_side": (2.10e-3, (1.083, 1.163, 1.131)),
+    "auburn_key": (2.12e-3, (0.860, 0.939, 1.031)),
+    "blond_back": (1.94e-2, (0.948, 0.938, 0.946)),
+    "black_top": (4.62e-3, (0.937, 0.967, 0.975)),
+    "brown_side": (6.00e-3, (1.084, 1.179, 1.172)),
 }
 
 
@@ -167,7 +169,7 @@ def test_07_coverage_dual_traced_against_path_tracing(name):
     print(f"{name}: relMSE {rel:.3e}, ratio {np.round(ratio, 3)}")
     assert rel <= 1.25 * e_max, rel
     assert np.all(np.abs(ratio - 1) <= np.abs(np.array(measured) - 1) + 0.03), ratio
-    assert ratio.max() / ratio.min() <= 1.2, ratio
+    assert ratio.max() / ratio.min() <= 1.25, ratio
 
 
 def test_08_sphere_bounce():
@@ -193,3 +195,39 @@ def test_08_sphere_bounce():
     d["render"]["sphere_bounce"] = 1
     with pytest.raises(hs.SceneError, match="sphere_bounce"):
         hs.Scene.from_dict(d)
+
+
+# Single scattering alone against path tracing at max_depth 2 (direct light;
+# Mitsuba llvm, two halves of 128 spp: their means differ by ~1%, seeds 21
+# and 22 at 64 spp by 1.4%). Measured on black_top, coverage
+# samples + traced shadows, mean radiance per channel over Mitsuba's
+# (docs/dense_hair.md, "Single scattering"): the far field once per fragment
+# 0.910/0.899/0.896, the near field per sample 0.984/0.980/0.978 (two runs
+# with other seeds agree to 1e-3). The far field assumes every offset across
+# a fiber is seen; in dense hair the fibers in front hide part of the ones
+# behind (top-lit black hair: R, brightest towards a fiber's edges). Gates:
+# the halves' means within 2%; the near field within 4% per channel; the
+# far field off by more than 6% in every channel (the test tells them
+# apart). Backlit blond is not gated here: its direct light (TT through
+# fibers) converges slowly in Mitsuba, two seed sets of 128 spp differed by
+# 4% in the mean.
+@pytest.mark.slow
+@pytest.mark.mitsuba
+def test_09_near_field_single_scattering_against_path_tracing():
+    from hairshade import mitsuba as hm
+
+    d = json.loads((DENSE / "black_top.json").read_text())
+    scene = hs.Scene.from_dict(d)
+    halves = [
+        hm.render(scene, spp=128, integrator="path", max_depth=2, seed=s, passes=1, progress=False) for s in (21, 22)
+    ]
+    mean = lambda x: x.reshape(-1, 3).mean(0)  # noqa: E731
+    assert np.abs(mean(halves[0]) / mean(halves[1]) - 1).max() < 0.02
+    truth = mean(0.5 * (halves[0] + halves[1]))
+    ratio = {}
+    for near in (False, True):
+        d["render"].update(transparency="coverage", multiple_scattering="none", shadow_model="traced", near_field=near)
+        ratio[near] = mean(hs.render(hs.Scene.from_dict(d))) / truth
+    print({k: np.round(v, 3) for k, v in ratio.items()})
+    assert np.abs(ratio[True] - 1).max() < 0.04, ratio
+    assert np.abs(ratio[False] - 1).min() > 0.06, ratio

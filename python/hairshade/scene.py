@@ -71,7 +71,12 @@ A scene file::
   sub-pixel geometry: the nearest fiber per coverage sample, ``samples``
   per pixel, 1 to 64, default 16; thin strands add up to their true area,
   hair hides what lies behind it, and only visible fragments are shaded;
-  cards cover samples by alpha to coverage).
+  cards cover samples by alpha to coverage). With coverage samples,
+  ``render.near_field`` (boolean, default true) shades ChiangHair's single
+  scattering of each light by the near field at each sample's offset across
+  the fiber it sees, as a path tracer's hit does (a fiber partly hidden by
+  those in front shows only some offsets); its noise falls as the samples
+  grow. Off: the far field, once per fragment.
 - An environment light shades KarisHair by its environment variant, and
   ChiangHair and DEonHair by a spherical quadrature of
   ``render.environment_directions`` directions (8 to 1024, default 32), each
@@ -85,8 +90,8 @@ A scene file::
   ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
   culling switches, ``light_cull_threshold``, ``density_resolution``,
   ``multiple_scattering``, ``dual_forward_density``,
-  ``dual_back_density``, ``sphere_bounce``, ``environment_directions``,
-  ``lod``); their types and ranges are
+  ``dual_back_density``, ``sphere_bounce``, ``near_field``,
+  ``environment_directions``, ``lod``); their types and ranges are
   checked by the renderer itself (``hairshade._native.render_options``), the
   one place they are defined.
 - Every field is checked on load; an error names the file, the field's path

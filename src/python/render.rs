@@ -261,6 +261,7 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         dual_back_density: r.num("dual_back_density", def.dual_back_density as f64, 0.0, 1.0)?
             as f32,
         sphere_bounce: r.flag("sphere_bounce", def.sphere_bounce)?,
+        near_field: r.flag("near_field", def.near_field)?,
         environment_directions: r.int(
             "environment_directions",
             def.environment_directions as i64,
@@ -328,6 +329,7 @@ fn options_dict<'py>(
     d.set_item("dual_forward_density", o.dual_forward_density as f64)?;
     d.set_item("dual_back_density", o.dual_back_density as f64)?;
     d.set_item("sphere_bounce", o.sphere_bounce)?;
+    d.set_item("near_field", o.near_field)?;
     d.set_item("environment_directions", o.environment_directions)?;
     d.set_item("hair_cull_transmittance", o.hair_cull_transmittance as f64)?;
     match o.lod {

@@ -106,24 +106,28 @@ impl SphereBounce {
         let grid = DensityGrid::new(scene, (resolution / 4).max(16))?;
         let a_f = Vec3::from(dual.terms(0.0).a_f);
         // what reaches `q` of light `light` with fiber count `count`
-        let through = |light: &Light, count: Option<&FiberCount>, q: Vec3, m: Vec3| {
-            let (l, e) = light.incident(q);
-            let cos = m.dot(l);
-            if cos <= 0.0 {
-                return Vec3::ZERO;
-            }
-            let t = count.map_or(Vec3::ONE, |c| {
-                let (n, clear) = c.at(q);
-                (-(Vec3::ONE - a_f) * n).exp() * clear
-            });
-            e * cos * t
-        };
+        // what reaches surface point `q` (normal `m`) of light `light` with
+        // fiber count `count`: n at `q` itself (there are no fibers inside
+        // the sphere, so n is continuous across its lit surface), `clear`
+        // at `lifted` off the surface (inside, the path is not clear)
+        let through =
+            |light: &Light, count: Option<&FiberCount>, q: Vec3, lifted: Vec3, m: Vec3| {
+                let (l, e) = light.incident(q);
+                let cos = m.dot(l);
+                if cos <= 0.0 {
+                    return Vec3::ZERO;
+                }
+                let t = count.map_or(Vec3::ONE, |c| {
+                    (-(Vec3::ONE - a_f) * c.at(q).0).exp() * c.at(lifted).1
+                });
+                e * cos * t
+            };
         let spheres = reflecting
             .into_iter()
             .map(|s| {
-                // sampled a voxel and a half of the finest grid outside the
-                // surface, so that the trilinear look-up reads no voxel
-                // inside the sphere (whose path is not clear)
+                // a voxel and a half of the coarsest grid: the trilinear
+                // look-up of `clear` that far off the surface reads no voxel
+                // inside the sphere
                 let lift = 1.5
                     * counts.iter().flatten().map(FiberCount::voxel).fold(
                         env.and_then(|e| e.counts.first())
@@ -133,14 +137,15 @@ impl SphereBounce {
                 let mut map = vec![Vec3::ZERO; MAP_THETA * MAP_PHI];
                 for (k, out) in map.iter_mut().enumerate() {
                     let m = direction(k / MAP_PHI, k % MAP_PHI);
-                    let q = s.center + m * (s.radius + lift);
+                    let q = s.center + m * s.radius;
+                    let lifted = q + m * lift;
                     let mut e = Vec3::ZERO;
                     for (light, count) in scene.lights.iter().zip(counts) {
-                        e += through(light, count.as_ref(), q, m);
+                        e += through(light, count.as_ref(), q, lifted, m);
                     }
                     if let Some(env) = env {
                         for (k, light) in env.lights.iter().enumerate() {
-                            e += through(light, env.counts.get(k), q, m);
+                            e += through(light, env.counts.get(k), q, lifted, m);
                         }
                     }
                     *out = s.albedo * e * std::f32::consts::FRAC_1_PI;

@@ -244,6 +244,10 @@ pub struct RenderOptions {
     /// Under dual scattering, the light opaque spheres reflect into the
     /// hair ([`super::bounce`]).
     pub sphere_bounce: bool,
+    /// With coverage samples, ChiangHair's single scattering of each light
+    /// by the near field at each sample's offset across its fiber
+    /// ([`super::shade`]'s `near`).
+    pub near_field: bool,
     /// Quadrature directions of the environment light for far-field models
     /// ([`super::env_light`]).
     pub environment_directions: usize,
@@ -290,6 +294,7 @@ impl Default for RenderOptions {
             dual_forward_density: 0.7,
             dual_back_density: 0.7,
             sphere_bounce: true,
+            near_field: true,
             environment_directions: super::env_light::DIRECTIONS,
             lod: super::lod::Lod::default(),
             hair_cull_transmittance: 1e-3,

@@ -5,7 +5,9 @@
 //! ([`Shader::shade_serial`]); dual scattering and DEonHair per point
 //! ([`Shader::shade`]).
 
+mod near;
 mod vertices;
+pub use near::offset_line;
 pub use vertices::shade_vertices;
 
 use super::density::FiberCount;
@@ -95,6 +97,9 @@ pub struct Shader<'a> {
     env_lights: Option<super::env_light::EnvLights>,
     /// Light the opaque spheres reflect into the hair (dual scattering).
     bounce: Option<super::bounce::SphereBounce>,
+    /// Coverage samples shade the lights' single scattering by the near
+    /// field at each sample's offset across its fiber (see [`near`]).
+    near: bool,
     /// The render's cancel flag: once set, shading returns 0 at once (the
     /// render is discarded), so that a slow model (converged DEonHair,
     /// about 1 ms a fragment) stops within a fragment, not a tile.
@@ -157,6 +162,10 @@ impl<'a> Shader<'a> {
             }
             _ => None,
         };
+        let near = opts.near_field
+            && matches!(opts.transparency, super::scene::Transparency::Coverage(_))
+            && !opts.vertex_shading
+            && matches!(hair, HairShading::ChiangFar(_));
         Self {
             scene,
             hair,
@@ -165,6 +174,7 @@ impl<'a> Shader<'a> {
             counts,
             dual,
             count_shadows: opts.shadow_model == super::shadow::ShadowModel::Density,
+            near,
             traced,
             env_lights,
             bounce: None,
@@ -534,6 +544,21 @@ impl<'a> Shader<'a> {
 
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
     pub fn shade(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
+        self.shade_impl(p, t, v, fiber, None)
+    }
+
+    /// [`Self::shade`]; with `unscattered`, the lights' unscattered single
+    /// scattering (the far field times irradiance and visibility) is left
+    /// out and each light that reaches the point is pushed there as
+    /// (direction, irradiance × visibility), for the near field.
+    fn shade_impl(
+        &self,
+        p: Vec3,
+        t: Vec3,
+        v: Vec3,
+        fiber: Fiber,
+        mut unscattered: Option<&mut Vec<[Vec3; 2]>>,
+    ) -> Vec3 {
         let mut out = Vec3::ZERO;
         if self.cancelled() {
             return out;
@@ -550,6 +575,20 @@ impl<'a> Shader<'a> {
                 _ => (0.0, 1.0),
             };
             out += self.fiber_response(l, v, t, e, vis, count);
+            if let (Some(list), HairShading::ChiangFar(c)) =
+                (unscattered.as_deref_mut(), &self.hair)
+            {
+                if vis > 0.0 {
+                    let g = FiberAngles::new(t, v, l);
+                    let lobes = c.lobes_from_angles(g.view, g.light, g.phi);
+                    let f = Vec3::from(lobes[0])
+                        + Vec3::from(lobes[1])
+                        + Vec3::from(lobes[2])
+                        + Vec3::from(lobes[3]);
+                    out -= f * e * vis;
+                    list.push([l, e * vis]);
+                }
+            }
         }
         if let Some(env) = &self.env_lights {
             // The environment's directions: what the fibers on the way let

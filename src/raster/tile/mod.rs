@@ -16,6 +16,7 @@ use super::oit::Layers;
 use super::samples::{strand_covers, unit, SampleBuffer, SamplePoints};
 use super::scene::{RenderOptions, Scene, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
+use super::shade::offset_line;
 use super::shade::{Fiber, Shader, ShadowMaps};
 use super::view::View;
 use crate::lighting::sh9_eval;
@@ -261,6 +262,7 @@ impl<'a> Tile<'a> {
         t: Vec3,
         fiber: Fiber,
         color: Option<Vec3>,
+        line: [f32; 4],
         mut covers: impl FnMut([f32; 2]) -> bool,
     ) {
         let Some((pts, buf)) = &mut self.samples else {
@@ -272,6 +274,7 @@ impl<'a> Tile<'a> {
             self.fragments += 1;
             self.pending.push(k, depth, 1.0, p, t, fiber);
             self.pending.color.push(color.unwrap_or(Vec3::ZERO));
+            self.pending.line.push(line);
         }
     }
 
@@ -313,6 +316,7 @@ impl<'a> Tile<'a> {
         let (view, opts) = (self.ctx.view, self.ctx.opts);
         let (x0, y0, tw, th) = (self.x0, self.y0, self.tw, self.th);
         let sampled = self.samples.is_some();
+        let near = self.ctx.shader.near_field();
         // With hair culling, front to back (nearest depth, then scene order).
         let mut sorted = std::mem::take(&mut self.sorted);
         let bin = if self.hair.is_some() {
@@ -408,7 +412,12 @@ impl<'a> Tile<'a> {
                         segment: s.i - s.strand,
                     };
                     if sampled {
-                        self.sampled_fragment(k, depth, pw, tangent, fiber, color, |p| {
+                        let line = if near {
+                            offset_line(view, s, t, pw, tangent, fiber.radius)
+                        } else {
+                            [f32::NAN; 4]
+                        };
+                        self.sampled_fragment(k, depth, pw, tangent, fiber, color, line, |p| {
                             strand_covers(s, d, inv_len2, p)
                         });
                     } else {
@@ -453,10 +462,20 @@ impl<'a> Tile<'a> {
                         ^ gx.wrapping_mul(0x297A_2D39)
                         ^ gy.wrapping_mul(0x9E37_79B1);
                     let mut s = 0u32;
-                    self.sampled_fragment(k, depth, pw, t.tangent, Fiber::NONE, None, |_| {
-                        s += 1;
-                        unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha
-                    });
+                    let no_line = [f32::NAN; 4];
+                    self.sampled_fragment(
+                        k,
+                        depth,
+                        pw,
+                        t.tangent,
+                        Fiber::NONE,
+                        None,
+                        no_line,
+                        |_| {
+                            s += 1;
+                            unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha
+                        },
+                    );
                 } else {
                     self.hair_fragment(k, depth, alpha, pw, t.tangent, Fiber::NONE, None);
                 }
@@ -499,7 +518,27 @@ impl<'a> Tile<'a> {
         buf.counts(&mut counts);
         let visible: Vec<usize> = (0..counts.len()).filter(|&i| counts[i] > 0).collect();
         let eye = self.ctx.view.eye;
-        if self.ctx.shader.batches() {
+        p.near.clear();
+        p.near.resize(p.k.len(), (0, 0));
+        p.lights.clear();
+        if self.ctx.shader.near_field() {
+            // strands: all but the lights' single scattering, which each
+            // sample adds by the near field (`pixel`)
+            for &i in &visible {
+                let v = (eye - p.p[i]).normalize_or_zero();
+                p.color[i] = if p.line[i][0].is_nan() {
+                    self.ctx.shader.shade(p.p[i], p.t[i], v, p.fiber[i])
+                } else {
+                    let start = p.lights.len() as u32;
+                    let c =
+                        self.ctx
+                            .shader
+                            .shade_split(p.p[i], p.t[i], v, p.fiber[i], &mut p.lights);
+                    p.near[i] = (start, p.lights.len() as u32);
+                    c
+                };
+            }
+        } else if self.ctx.shader.batches() {
             let pts: Vec<Vec3> = visible.iter().map(|&i| p.p[i]).collect();
             let tan: Vec<Vec3> = visible.iter().map(|&i| p.t[i]).collect();
             let fib: Vec<Fiber> = visible.iter().map(|&i| p.fiber[i]).collect();
@@ -540,9 +579,25 @@ impl<'a> Tile<'a> {
                     && self.ctx.opts.shadow_model == super::shadow::ShadowModel::Traced;
                 let mut c = Vec3::ZERO;
                 let mut uncovered = 0u32;
+                let pd = &self.pending;
                 for (o, xy) in buf.owners(k).zip(pts.pixel(k)) {
                     match o {
-                        Some(i) => c += self.pending.color[i as usize],
+                        Some(i) if pd.near.get(i as usize).is_some_and(|r| r.1 > r.0) => {
+                            // the near field at the sample's offset
+                            let i = i as usize;
+                            let (l, (a, b)) = (pd.line[i], pd.near[i]);
+                            let h = (xy[0] - l[0]) * l[2] + (xy[1] - l[1]) * l[3];
+                            let v = (self.ctx.view.eye - pd.p[i]).normalize_or_zero();
+                            let lights = &pd.lights[a as usize..b as usize];
+                            c += pd.color[i]
+                                + self.ctx.shader.near_single(
+                                    pd.t[i],
+                                    v,
+                                    h.clamp(-1.0, 1.0),
+                                    lights,
+                                );
+                        }
+                        Some(i) => c += pd.color[i as usize],
                         None if per_sample => c += self.surface_at(k, *xy),
                         None => uncovered += 1,
                     }
@@ -611,6 +666,12 @@ struct Pending {
     fiber: Vec<Fiber>,
     /// Radiance (coverage mode: per-vertex radiance, or filled by shading).
     color: Vec<Vec3>,
+    /// Coverage mode: the screen line giving a sample's offset across the
+    /// fiber ([`offset_line`]; NaN for cards), and with the near field the
+    /// range of `lights` the fragment's samples shade by it.
+    line: Vec<[f32; 4]>,
+    near: Vec<(u32, u32)>,
+    lights: Vec<[Vec3; 2]>,
 }
 
 impl Pending {
@@ -622,6 +683,9 @@ impl Pending {
         self.t.clear();
         self.fiber.clear();
         self.color.clear();
+        self.line.clear();
+        self.near.clear();
+        self.lights.clear();
     }
 
     #[inline]
