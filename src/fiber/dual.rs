@@ -42,8 +42,8 @@
 //! ## Shading (per light, see [`DualTable::shade_chiang`])
 //!
 //! ```text
-//! L = E · [ P0 (f + d_b f_back) + (T − P0) d_f (f_scatter + d_b f_back') ]
-//! T = c · e^{−n (1 − a_f)}            (Poisson count of fibers, mean n; c: unoccluded by opaque geometry)
+//! L = E · [ P0 (f + d_b f_back) + S d_f (f_scatter + d_b f_back') ]
+//! S = c (e^{−n (1 − a_f)} − e^{−n})          (Poisson count of fibers, mean n; c: unoccluded by opaque geometry)
 //! σ_f² = n β_f²
 //! f_back  = A_b G(x − Δ_b; σ_b²) · [|φ| < π/2] / π
 //! f_back' = A_b G(x − Δ_b; σ_b² + σ_f²) · (1 − |φ|/π) / π
@@ -51,7 +51,11 @@
 //! ```
 //!
 //! `P0` is the fraction of the light that reaches the point unscattered
-//! (the renderer's shadow term), `G` the normalized Gaussian, `d_f`, `d_b`
+//! (the renderer's shadow term), `S` the light scattered forward on the
+//! way (Zinke's `T_f` less its unscattered part `e^{−n}`: scattered light
+//! arrives from around the straight path, so a point receives it whether
+//! or not its own path is blocked; with a traced shadow, `P0` is 0 or 1
+//! and `S` does not depend on it), `G` the normalized Gaussian, `d_f`, `d_b`
 //! Zinke's density factors. Forward-scattered light arrives from azimuths
 //! within π/2 of the light's, uniformly, so `N^G` is `N̄_p` averaged over
 //! that window, and the window's overlap with the backward half is the
@@ -334,7 +338,7 @@ impl DualTable {
         // forward spread after n fibers (bounded: beyond ~4 the lobes are flat)
         let sigma_f2 = (n * beta_f2).min(4.0);
         let scattered: [f32; 3] =
-            std::array::from_fn(|c| (clear * (-n * (1.0 - t.a_f[c])).exp() - p0).max(0.0));
+            std::array::from_fn(|c| clear * ((-n * (1.0 - t.a_f[c])).exp() - (-n).exp()).max(0.0));
         // Ā_3 is constant in φ: its window average is itself
         let (m_g, ng, a3) = if scattered.iter().any(|&s| s > 0.0) {
             let m = table.model().longitudinal_widened(view, light, sigma_f2);
