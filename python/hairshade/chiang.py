@@ -205,7 +205,7 @@ class ChiangHair(_models.Picklable):
         (cos theta_i nodes, phi nodes, bytes); building it on first use."""
         return tuple(self._native.far_table_size)  # type: ignore[return-value]
 
-    def dual_terms(self, back_density: float = 0.7) -> dict[str, np.ndarray]:
+    def dual_terms(self, back_density: float = 1.0) -> dict[str, np.ndarray]:
         """The dual-scattering terms of this material (Zinke et al. 2008),
         integrated from its far field (the table of ``eval_far(fast=True)``)
         at 65 incidences ``sin_theta`` from -1 to 1: ``a_f``, ``a_b`` (forward

@@ -55,8 +55,9 @@ A scene file::
   for KarisHair, none for the others), ``none``, ``karis`` (KarisHair only)
   or ``dual`` (ChiangHair only: dual scattering through the density grid,
   Zinke et al. 2008, tables integrated from the material's far field; see
-  ``ChiangHair.dual_terms``); ``dual_forward_density`` and
-  ``dual_back_density`` (0 to 1, default 0.7) are its d_f and d_b;
+  ``ChiangHair.dual_terms``); ``dual_forward_density`` (0 to 1, default
+  0.7) and ``dual_back_density`` (0 to 1, default 1) are its d_f and d_b
+  (chosen by measurement against path-traced heads, docs/dense_hair.md);
   ``sphere_bounce`` (boolean, default true) adds, under dual scattering,
   the light opaque spheres (a head) reflect back into the hair of what the
   fibers let through to them (ignored otherwise).

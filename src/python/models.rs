@@ -236,7 +236,7 @@ impl PyChiangHair {
     /// The dual-scattering terms over the incidence nodes (sin θ from -1 to
     /// 1): a dict of float64 arrays, (nodes,) for `sin_theta` and
     /// (nodes, 3) for each term (see `crate::fiber::dual`).
-    #[pyo3(signature = (back_density=0.7))]
+    #[pyo3(signature = (back_density=1.0))]
     fn dual_terms<'py>(&self, py: Python<'py>, back_density: f64) -> PyResult<Bound<'py, PyDict>> {
         if !(0.0..=1.0).contains(&back_density) {
             return Err(PyValueError::new_err(format!(
