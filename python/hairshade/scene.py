@@ -58,6 +58,13 @@ A scene file::
   ``ChiangHair.dual_terms``); ``dual_forward_density`` (0 to 1, default
   0.7) and ``dual_back_density`` (0 to 1, default 1) are its d_f and d_b
   (chosen by measurement against path-traced heads, docs/dense_hair.md);
+  ``dual_backscatter``: ``local`` (default: Zinke's local back scattering
+  A_b) or ``two_stream`` (the light each fiber receives is the two
+  streams of a slab along each light's line, fiber counts towards and away
+  from the light: with ``dual_forward_density`` 1 it conserves energy, a
+  white slab in a white furnace renders within 1%, where ``local`` keeps
+  a fifth; on the dense heads it is closer on key- and environment-lit hair
+  and too bright on backlit blond, docs/dense_hair.md);
   ``sphere_bounce`` (boolean, default true) adds, under dual scattering,
   the light opaque spheres (a head) reflect back into the hair of what the
   fibers let through to them (ignored otherwise).
@@ -91,7 +98,7 @@ A scene file::
   ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
   culling switches, ``light_cull_threshold``, ``density_resolution``,
   ``multiple_scattering``, ``dual_forward_density``,
-  ``dual_back_density``, ``sphere_bounce``, ``near_field``,
+  ``dual_back_density``, ``dual_backscatter``, ``sphere_bounce``, ``near_field``,
   ``environment_directions``, ``lod``); their types and ranges are
   checked by the renderer itself (``hairshade._native.render_options``), the
   one place they are defined.

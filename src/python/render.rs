@@ -8,8 +8,8 @@ use super::convert::{run_polling, slice, to_numpy, without_gil};
 use super::models::{PyChiangHair, PyDEonHair, PyKarisHair};
 use crate::raster::lod::Lod;
 use crate::raster::scene::{
-    AlphaTexture, Camera, Cards, Environment, HairShading, Light, MultipleScattering, OpaqueTri,
-    RenderOptions, Scene, Sphere, Strands, Transparency,
+    AlphaTexture, Backscatter, Camera, Cards, Environment, HairShading, Light, MultipleScattering,
+    OpaqueTri, RenderOptions, Scene, Sphere, Strands, Transparency,
 };
 use crate::raster::shadow::ShadowModel;
 use glam::Vec3;
@@ -260,6 +260,10 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         )? as f32,
         dual_back_density: r.num("dual_back_density", def.dual_back_density as f64, 0.0, 1.0)?
             as f32,
+        dual_backscatter: match r.choice("dual_backscatter", "local", &["local", "two_stream"])? {
+            "two_stream" => Backscatter::TwoStream,
+            _ => Backscatter::Local,
+        },
         sphere_bounce: r.flag("sphere_bounce", def.sphere_bounce)?,
         near_field: r.flag("near_field", def.near_field)?,
         environment_directions: r.int(
@@ -328,6 +332,13 @@ fn options_dict<'py>(
     )?;
     d.set_item("dual_forward_density", o.dual_forward_density as f64)?;
     d.set_item("dual_back_density", o.dual_back_density as f64)?;
+    d.set_item(
+        "dual_backscatter",
+        match o.dual_backscatter {
+            Backscatter::Local => "local",
+            Backscatter::TwoStream => "two_stream",
+        },
+    )?;
     d.set_item("sphere_bounce", o.sphere_bounce)?;
     d.set_item("near_field", o.near_field)?;
     d.set_item("environment_directions", o.environment_directions)?;

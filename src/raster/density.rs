@@ -57,6 +57,10 @@ pub struct FiberCount {
     dims: [usize; 3],
     /// `[n, clear]` per voxel.
     n: Vec<[f32; 2]>,
+    /// Per voxel, the fibers crossed going the other way, away from the
+    /// light, up to the grid's edge or opaque geometry (empty unless asked
+    /// for: the two-stream back scattering of [`crate::fiber::dual`]).
+    behind: Vec<f32>,
 }
 
 impl DensityGrid {
@@ -96,6 +100,13 @@ impl DensityGrid {
     #[inline]
     fn index(&self, i: usize, j: usize, k: usize) -> usize {
         (k * self.dims[1] + j) * self.dims[0] + i
+    }
+
+    /// Centre of the voxel of index `v`.
+    #[inline]
+    fn centre_of(&self, v: usize) -> Vec3 {
+        let d = self.dims;
+        self.centre(v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]))
     }
 
     /// Voxel centre (i, j, k).
@@ -264,23 +275,46 @@ impl DensityGrid {
 
     /// The fiber count to `light` from every voxel centre.
     pub fn fiber_count(&self, light: &Light) -> FiberCount {
-        let n = match *light {
-            Light::Directional { direction, .. } => self.sweep(direction.normalize_or(Vec3::Y)),
-            Light::Point { position, .. } => self.march_to(position),
+        self.fiber_count_with(light, false)
+    }
+
+    /// [`Self::fiber_count`], with `behind` also the count away from the
+    /// light from every voxel centre.
+    pub fn fiber_count_with(&self, light: &Light, behind: bool) -> FiberCount {
+        let (n, behind) = match *light {
+            Light::Directional { direction, .. } => {
+                let d = direction.normalize_or(Vec3::Y);
+                let back = if behind {
+                    self.sweep(-d, true).into_iter().map(|v| v[0]).collect()
+                } else {
+                    Vec::new()
+                };
+                (self.sweep(d, false), back)
+            }
+            Light::Point { position, .. } => {
+                let back = if behind {
+                    self.march_away(position)
+                } else {
+                    Vec::new()
+                };
+                (self.march_to(position), back)
+            }
         };
         FiberCount {
             origin: self.origin,
             voxel: self.voxel,
             dims: self.dims,
             n,
+            behind,
         }
     }
 
     /// `n` for a directional light towards `d`, slice by slice along its
     /// major axis, starting at the slice nearest the light (each slice's
     /// rows in parallel, into slice-major storage, then gathered into the
-    /// grid's order).
-    fn sweep(&self, d: Vec3) -> Vec<[f32; 2]> {
+    /// grid's order). With `stop`, a path ends at opaque geometry: an
+    /// opaque voxel holds `[0, 0]` and the count restarts past it.
+    fn sweep(&self, d: Vec3, stop: bool) -> Vec<[f32; 2]> {
         let sigma = self.sigma_field(d);
         let a = d.abs().max_position();
         let (b, c) = ((a + 1) % 3, (a + 2) % 3);
@@ -319,6 +353,10 @@ impl DensityGrid {
                             let v = at(ia, ib, ic);
                             let here = sigma[v];
                             let clear = if self.is_opaque(v) { 0.0 } else { 1.0 };
+                            if stop && clear == 0.0 {
+                                *out = [0.0, 0.0];
+                                continue;
+                            }
                             let Some((ua, up)) = upstream else {
                                 *out = [0.5 * step * here, clear];
                                 continue;
@@ -378,17 +416,11 @@ impl DensityGrid {
     /// half-voxel steps, nearest-voxel σ.
     fn march_to(&self, p: Vec3) -> Vec<[f32; 2]> {
         let sigma = self.sigma_field_towards(p);
-        let dims = self.dims;
         pool().install(|| {
             (0..sigma.len())
                 .into_par_iter()
                 .map(|v| {
-                    let (i, j, k) = (
-                        v % dims[0],
-                        (v / dims[0]) % dims[1],
-                        v / (dims[0] * dims[1]),
-                    );
-                    let x = self.centre(i, j, k);
+                    let x = self.centre_of(v);
                     let to = p - x;
                     let dist = to.length();
                     let steps = ((2.0 * dist / self.voxel).ceil() as usize).clamp(1, 4 * 1024);
@@ -409,18 +441,40 @@ impl DensityGrid {
         })
     }
 
+    /// The count away from a point light at `p` from every voxel centre:
+    /// a march along the line from `p` through the centre, half-voxel
+    /// steps, nearest-voxel σ, up to the grid's edge or opaque geometry.
+    fn march_away(&self, p: Vec3) -> Vec<f32> {
+        let sigma = self.sigma_field_towards(p);
+        let dims = self.dims;
+        let max_steps = 2 * (dims[0] + dims[1] + dims[2]);
+        let h = 0.5 * self.voxel;
+        pool().install(|| {
+            (0..sigma.len())
+                .into_par_iter()
+                .map(|v| {
+                    let x = self.centre_of(v);
+                    let dir = (x - p).normalize_or(Vec3::Y);
+                    let mut n = 0.0;
+                    for s in 0..max_steps {
+                        let Some(w) = self.voxel_at(x + dir * (h * (s as f32 + 0.5))) else {
+                            break;
+                        };
+                        if self.is_opaque(w) {
+                            break;
+                        }
+                        n += h * sigma[w];
+                    }
+                    n
+                })
+                .collect()
+        })
+    }
+
     /// σ towards a point `p` at every voxel.
     fn sigma_field_towards(&self, p: Vec3) -> Vec<f32> {
-        let dims = self.dims;
         (0..self.moments.len())
-            .map(|v| {
-                let (i, j, k) = (
-                    v % dims[0],
-                    (v / dims[0]) % dims[1],
-                    v / (dims[0] * dims[1]),
-                );
-                self.sigma(v, (p - self.centre(i, j, k)).normalize_or(Vec3::Y))
-            })
+            .map(|v| self.sigma(v, (p - self.centre_of(v)).normalize_or(Vec3::Y)))
             .collect()
     }
 
@@ -456,15 +510,27 @@ impl FiberCount {
         ((n - own).max(0.0), clear)
     }
 
-    /// `(n, clear)` at `p`: the expected fibers crossed on the way to the
-    /// light and the fraction of the path clear of opaque geometry
-    /// (trilinear between voxel centres; outside the grid (0, 1)).
+    /// The count away from the light at a point of a fiber (its own share
+    /// left out as in [`Self::at_fiber`]), if this count holds it.
     #[inline]
-    pub fn at(&self, p: Vec3) -> (f32, f32) {
+    pub fn behind_fiber(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> Option<f32> {
+        if self.behind.is_empty() {
+            return None;
+        }
+        let mut m = 0.0;
+        self.trilinear(p, |v, w| m += w * self.behind[v]);
+        let own = r * t.cross(d).length() / self.voxel;
+        Some((m - own).max(0.0))
+    }
+
+    /// Calls `f(voxel, weight)` for the trilinear weights of `p` between
+    /// voxel centres inside the grid; returns the weights' sum.
+    #[inline]
+    fn trilinear(&self, p: Vec3, mut f: impl FnMut(usize, f32)) -> f32 {
         let g = (p - self.origin) / self.voxel - 0.5;
         let b = g.floor();
-        let f = g - b;
-        let (mut n, mut clear, mut inside) = (0.0, 0.0, 0.0);
+        let fr = g - b;
+        let mut inside = 0.0;
         for dz in 0..2 {
             for dy in 0..2 {
                 for dx in 0..2 {
@@ -478,19 +544,32 @@ impl FiberCount {
                     {
                         continue;
                     }
-                    let w = (if dx == 1 { f.x } else { 1.0 - f.x })
-                        * (if dy == 1 { f.y } else { 1.0 - f.y })
-                        * (if dz == 1 { f.z } else { 1.0 - f.z });
+                    let w = (if dx == 1 { fr.x } else { 1.0 - fr.x })
+                        * (if dy == 1 { fr.y } else { 1.0 - fr.y })
+                        * (if dz == 1 { fr.z } else { 1.0 - fr.z });
                     if w > 0.0 {
-                        let v =
-                            ((k as usize * self.dims[1]) + j as usize) * self.dims[0] + i as usize;
-                        n += w * self.n[v][0];
-                        clear += w * self.n[v][1];
+                        f(
+                            ((k as usize * self.dims[1]) + j as usize) * self.dims[0] + i as usize,
+                            w,
+                        );
                         inside += w;
                     }
                 }
             }
         }
+        inside
+    }
+
+    /// `(n, clear)` at `p`: the expected fibers crossed on the way to the
+    /// light and the fraction of the path clear of opaque geometry
+    /// (trilinear between voxel centres; outside the grid (0, 1)).
+    #[inline]
+    pub fn at(&self, p: Vec3) -> (f32, f32) {
+        let (mut n, mut clear) = (0.0, 0.0);
+        let inside = self.trilinear(p, |v, w| {
+            n += w * self.n[v][0];
+            clear += w * self.n[v][1];
+        });
         (n, clear + (1.0 - inside))
     }
 }
@@ -499,7 +578,7 @@ impl FiberCount {
 mod tests {
     use super::*;
     use crate::fiber::karis::KarisParams;
-    use crate::raster::scene::{Camera, Cards, HairShading};
+    use crate::raster::scene::{Camera, Cards, HairShading, Sphere};
 
     /// A box [0, 1]³ of straight fibers along x, radius `r`, on a square
     /// lattice of spacing `s` in (y, z): σ(d) = 2r|x̂ × d| / s² per unit
@@ -588,5 +667,64 @@ mod tests {
         let one = DensityGrid::new(&scene, 48);
         crate::threads::set_single_threaded(false);
         assert_eq!(one.unwrap().moments, many.moments);
+    }
+
+    // 03: the count away from the light: for a directional light σ times
+    // the path length to the box's far face (the same tolerance as 01), for
+    // a point light the same along the line from the light, and with an
+    // opaque sphere in the box it ends at the sphere (σ times the distance
+    // to its surface; the sphere is marked by voxel centres, so within one
+    // voxel of it: σ·voxel more).
+    #[test]
+    fn t03_count_behind() {
+        let (r, s) = (0.001f32, 0.005f32);
+        let sigma = 2.0 * r / (s * s);
+        let mut scene = lattice(r, s);
+        let grid = DensityGrid::new(&scene, 64).unwrap();
+        let tol = sigma * grid.voxel;
+        let behind = |grid: &DensityGrid, light: &Light, p: Vec3| {
+            let c = grid.fiber_count_with(light, true);
+            let m = c.behind_fiber(p, 0.0, Vec3::X, Vec3::Z).unwrap();
+            assert!(grid
+                .fiber_count(light)
+                .behind_fiber(p, 0.0, Vec3::X, Vec3::Z)
+                .is_none());
+            m
+        };
+        let dir = Light::Directional {
+            direction: Vec3::Z,
+            intensity: Vec3::ONE,
+            shadows: true,
+        };
+        let point = Light::Point {
+            position: Vec3::new(0.5, 0.5, 3.0),
+            intensity: Vec3::ONE,
+            shadows: true,
+        };
+        for z in [0.2f32, 0.5, 0.8] {
+            let p = Vec3::new(0.5, 0.5, z);
+            for light in [&dir, &point] {
+                let m = behind(&grid, light, p);
+                assert!((m - sigma * z).abs() <= tol, "z {z}: {m} vs {}", sigma * z);
+            }
+        }
+        // an opaque sphere below: the count stops at its top
+        scene.spheres.push(Sphere {
+            center: Vec3::new(0.5, 0.5, 0.1),
+            radius: 0.15,
+            albedo: Vec3::ONE,
+        });
+        let grid = DensityGrid::new(&scene, 64).unwrap();
+        for z in [0.5f32, 0.8] {
+            let p = Vec3::new(0.5, 0.5, z);
+            let want = sigma * (z - 0.25);
+            for light in [&dir, &point] {
+                let m = behind(&grid, light, p);
+                assert!(
+                    (m - want).abs() <= 2.0 * tol,
+                    "sphere, z {z}: {m} vs {want}"
+                );
+            }
+        }
     }
 }

@@ -47,8 +47,15 @@ fn fibonacci(k: usize, n: usize) -> Vec3 {
 impl EnvLights {
     /// The `count`-direction quadrature of `env` for `scene`, its fiber
     /// counts from a grid of `resolution / 4` voxels (at least 16) along the
-    /// hair's longest side, swept in parallel on the render's pool.
-    pub fn new(scene: &Scene, env: &Environment, count: usize, resolution: usize) -> Self {
+    /// hair's longest side, swept in parallel on the render's pool (with
+    /// `behind`, the counts away from each direction too).
+    pub fn new(
+        scene: &Scene,
+        env: &Environment,
+        count: usize,
+        resolution: usize,
+        behind: bool,
+    ) -> Self {
         let w = 4.0 * std::f32::consts::PI / count as f32;
         let lights: Vec<Light> = (0..count)
             .filter_map(|k| {
@@ -62,20 +69,26 @@ impl EnvLights {
             })
             .collect();
         let counts = match DensityGrid::new(scene, (resolution / 4).max(16)) {
-            Some(grid) => crate::threads::pool()
-                .install(|| lights.par_iter().map(|l| grid.fiber_count(l)).collect()),
+            Some(grid) => crate::threads::pool().install(|| {
+                lights
+                    .par_iter()
+                    .map(|l| grid.fiber_count_with(l, behind))
+                    .collect()
+            }),
             None => Vec::new(),
         };
         Self { lights, counts }
     }
 
-    /// `(n, clear)` towards light `k` (direction `d`) at `p` of a fiber of
-    /// radius `r` and tangent `t`, its own share left out (no hair: `(0, 1)`).
+    /// `(n, clear, behind)` towards light `k` (direction `d`) at `p` of a
+    /// fiber of radius `r` and tangent `t`, its own share left out (no
+    /// hair: `(0, 1, None)`; `behind` when the counts hold it).
     #[inline]
-    pub fn count(&self, k: usize, p: Vec3, r: f32, t: Vec3, d: Vec3) -> (f32, f32) {
-        self.counts
-            .get(k)
-            .map_or((0.0, 1.0), |c| c.at_fiber(p, r, t, d))
+    pub fn count(&self, k: usize, p: Vec3, r: f32, t: Vec3, d: Vec3) -> (f32, f32, Option<f32>) {
+        self.counts.get(k).map_or((0.0, 1.0, None), |c| {
+            let (n, clear) = c.at_fiber(p, r, t, d);
+            (n, clear, c.behind_fiber(p, r, t, d))
+        })
     }
 }
 

@@ -100,19 +100,27 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions, ms: MultipleScattering) -> 
         ),
     ];
     let density = opts.shadow_model == ShadowModel::Density || ms == MultipleScattering::Dual;
+    // Per voxel and light: [n, clear], and the count away from the light
+    // for the two-stream back scattering.
+    let per_light = if ms == MultipleScattering::Dual
+        && opts.dual_backscatter == super::scene::Backscatter::TwoStream
+    {
+        12
+    } else {
+        8
+    };
     if density && shadowed > 0 {
-        // Moments (7 floats) summed from 8 per-chunk grids, and [n, clear]
-        // per voxel for each light.
+        // Moments (7 floats) summed from 8 per-chunk grids, and the counts.
         let voxels = density_voxels(scene, opts.density_resolution);
-        items.push(("density grid", voxels * (28 * 9 + 8 * shadowed)));
+        items.push(("density grid", voxels * (28 * 9 + per_light * shadowed)));
     }
     if scene.environment.is_some() && !matches!(scene.hair, super::scene::HairShading::Karis(_)) {
         // The environment light of a far-field model: a grid at a quarter
-        // resolution, [n, clear] per voxel for each direction.
+        // resolution, the counts per voxel for each direction.
         let voxels = density_voxels(scene, (opts.density_resolution / 4).max(16));
         items.push((
             "environment fiber counts",
-            voxels * (28 * 9 + 8 * opts.environment_directions as u64),
+            voxels * (28 * 9 + per_light * opts.environment_directions as u64),
         ));
     }
     if opts.shadow_model == ShadowModel::Traced {

@@ -168,6 +168,9 @@ pub fn render_with_progress(
                 env,
                 opts.environment_directions,
                 opts.density_resolution,
+                two_stream(opts)
+                    && shade::multiple_scattering(&scene.hair, opts)
+                        == scene::MultipleScattering::Dual,
             ))
         }
         _ => None,
@@ -324,8 +327,14 @@ fn fiber_counts(scene: &Scene, opts: &RenderOptions) -> Vec<Option<density::Fibe
     scene
         .lights
         .iter()
-        .map(|l| wanted(l).then(|| grid.fiber_count(l)))
+        .map(|l| wanted(l).then(|| grid.fiber_count_with(l, two_stream(opts))))
         .collect()
+}
+
+/// Whether dual scattering's back scattering is the two-stream slab's (the
+/// fiber counts then hold the count away from each light too).
+fn two_stream(opts: &RenderOptions) -> bool {
+    opts.dual_backscatter == scene::Backscatter::TwoStream
 }
 
 /// Per-vertex shading of segments clipped at the near plane: a clipped end

@@ -244,6 +244,10 @@ pub struct RenderOptions {
     /// hair 5-17% too bright.
     pub dual_forward_density: f32,
     pub dual_back_density: f32,
+    /// Dual scattering's back scattering: Zinke's local `A_b` or the
+    /// two-stream slab of [`crate::fiber::dual::two_stream`] (which needs
+    /// the fiber count away from each light as well).
+    pub dual_backscatter: Backscatter,
     /// Under dual scattering, the light opaque spheres reflect into the
     /// hair ([`super::bounce`]).
     pub sphere_bounce: bool,
@@ -296,6 +300,7 @@ impl Default for RenderOptions {
             multiple_scattering: None,
             dual_forward_density: 0.7,
             dual_back_density: 1.0,
+            dual_backscatter: Backscatter::Local,
             sphere_bounce: true,
             near_field: true,
             environment_directions: super::env_light::DIRECTIONS,
@@ -303,6 +308,15 @@ impl Default for RenderOptions {
             hair_cull_transmittance: 1e-3,
         }
     }
+}
+
+/// Dual scattering's back scattering (`render.dual_backscatter`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backscatter {
+    /// Zinke's local back scattering `A_b` (`"local"`).
+    Local,
+    /// The two-stream slab along each light's line (`"two_stream"`).
+    TwoStream,
 }
 
 /// Everything the renderer draws.

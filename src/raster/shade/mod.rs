@@ -294,7 +294,7 @@ impl<'a> Shader<'a> {
             for (k, light) in env.lights.iter().enumerate() {
                 for (i, p) in points.iter().enumerate() {
                     let (li, e) = light.incident(*p);
-                    let (count, clear) = env.count(k, *p, fibers[i].radius, tangents[i], li);
+                    let (count, clear, _) = env.count(k, *p, fibers[i].radius, tangents[i], li);
                     b.l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
                     (b.irradiance[i], b.shadow[i]) = (e, clear * (-count).exp());
                 }
@@ -507,13 +507,14 @@ impl<'a> Shader<'a> {
         t: Vec3,
         e: Vec3,
         vis: f32,
-        count: (f32, f32),
+        count: (f32, f32, Option<f32>),
     ) -> Vec3 {
         if let (Some((dual, d_f)), HairShading::ChiangFar(c)) = (&self.dual, &self.hair) {
             let g = FiberAngles::new(t, v, l);
-            let (n, clear) = count;
-            return Vec3::from(dual.shade_chiang(c, g.view, g.light, g.phi, vis, n, clear, *d_f))
-                * e;
+            let (n, clear, behind) = count;
+            return Vec3::from(
+                dual.shade_chiang(c, g.view, g.light, g.phi, vis, n, clear, *d_f, behind),
+            ) * e;
         }
         if vis <= 0.0 {
             return Vec3::ZERO;
@@ -571,8 +572,11 @@ impl<'a> Shader<'a> {
             }
             let vis = self.hair_visibility(li, sm, p, t, v, fiber);
             let count = match (&self.dual, &self.counts[li]) {
-                (Some(_), Some(c)) => c.at_fiber(p, fiber.radius, t, l),
-                _ => (0.0, 1.0),
+                (Some(_), Some(c)) => {
+                    let (n, clear) = c.at_fiber(p, fiber.radius, t, l);
+                    (n, clear, c.behind_fiber(p, fiber.radius, t, l))
+                }
+                _ => (0.0, 1.0, None),
             };
             out += self.fiber_response(l, v, t, e, vis, count);
             if let (Some(list), HairShading::ChiangFar(c)) =
@@ -595,8 +599,8 @@ impl<'a> Shader<'a> {
             // through (see `env_light`).
             for (k, light) in env.lights.iter().enumerate() {
                 let (l, e) = light.incident(p);
-                let (n, clear) = env.count(k, p, fiber.radius, t, l);
-                out += self.fiber_response(l, v, t, e, clear * (-n).exp(), (n, clear));
+                let (n, clear, behind) = env.count(k, p, fiber.radius, t, l);
+                out += self.fiber_response(l, v, t, e, clear * (-n).exp(), (n, clear, behind));
             }
         }
         self.flush(tally);
