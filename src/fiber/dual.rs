@@ -366,12 +366,10 @@ impl DualTable {
         let sigma_f2 = (n * beta_f2).min(4.0);
         let scattered: [f32; 3] =
             std::array::from_fn(|c| clear * ((-n * (1.0 - t.a_f[c])).exp() - (-n).exp()).max(0.0));
-        // Ā_3 is constant in φ: its window average is itself
-        let (m_g, ng, a3) = if scattered.iter().any(|&s| s > 0.0) {
-            let m = table.model().longitudinal_widened(view, light, sigma_f2);
-            (m, self.ng(view.1, phi), table.azimuthal(view.1, phi).1)
+        let f_scatter = if scattered.iter().any(|&s| s > 0.0) {
+            self.scatter_response(table, view, light, sigma_f2, phi)
         } else {
-            ([0.0; 4], [[0.0; 3]; 3], [0.0; 3])
+            [0.0; 3]
         };
         let d_b = self.d_b;
         for c in 0..3 {
@@ -380,13 +378,11 @@ impl DualTable {
             let back = t.big_a_b[c] * gauss(dev, t.sigma_b2[c]) * back_side * FRAC_1_PI;
             let mut v = p0 * (single + d_b * back);
             if scattered[c] > 0.0 {
-                let f_scatter =
-                    m_g[0] * ng[0][c] + m_g[1] * ng[1][c] + m_g[2] * ng[2][c] + m_g[3] * a3[c];
                 let back_s = t.big_a_b[c]
                     * gauss(dev, t.sigma_b2[c] + sigma_f2)
                     * (1.0 - phi.abs() * FRAC_1_PI)
                     * FRAC_1_PI;
-                v += scattered[c] * d_f * (f_scatter + d_b * back_s);
+                v += scattered[c] * d_f * (f_scatter[c] + d_b * back_s);
             }
             out[c] = if v.is_finite() { v.max(0.0) } else { 0.0 };
         }
@@ -395,6 +391,25 @@ impl DualTable {
 }
 
 impl DualTable {
+    /// The response to forward-scattered light arriving at azimuth `phi`
+    /// with the longitudinal spread `sigma2`: `Σ_p M_p(v_p + σ²) N^G_p(φ)`
+    /// (Ā_3 is constant in φ: its window average is itself).
+    fn scatter_response(
+        &self,
+        table: &ChiangFarTable,
+        view: (f32, f32),
+        light: (f32, f32),
+        sigma2: f32,
+        phi: f32,
+    ) -> [f32; 3] {
+        let m_g = table.model().longitudinal_widened(view, light, sigma2);
+        let ng = self.ng(view.1, phi);
+        let a3 = table.azimuthal(view.1, phi).1;
+        std::array::from_fn(|c| {
+            m_g[0] * ng[0][c] + m_g[1] * ng[1][c] + m_g[2] * ng[2][c] + m_g[3] * a3[c]
+        })
+    }
+
     /// [`Self::shade_chiang`] with the two-stream back scattering: the
     /// forward stream `I⁺` (its scattered part `I⁺ − e^{−n}`, spread by
     /// `σ_f²` as Zinke's) and the backward stream `I⁻`, which reaches the
@@ -431,22 +446,19 @@ impl DualTable {
             fwd[c] = clear * (i_plus - (-n).exp()).max(0.0);
             bwd[c] = clear * i_minus;
         }
-        // a stream's response: Σ_p M_p(widened) N^G_p at its azimuth
-        let response = |sigma2: f32, phi: f32| -> [f32; 3] {
-            let m_g = table.model().longitudinal_widened(view, light, sigma2);
-            let ng = self.ng(view.1, phi);
-            let a3 = table.azimuthal(view.1, phi).1;
-            std::array::from_fn(|c| {
-                m_g[0] * ng[0][c] + m_g[1] * ng[1][c] + m_g[2] * ng[2][c] + m_g[3] * a3[c]
-            })
-        };
         let f_fwd = if fwd.iter().any(|&s| s > 0.0) {
-            response(sigma_f2, phi.abs())
+            self.scatter_response(table, view, light, sigma_f2, phi.abs())
         } else {
             [0.0; 3]
         };
         let f_bwd = if bwd.iter().any(|&s| s > 0.0) {
-            response(sigma_b2, std::f32::consts::PI - phi.abs())
+            self.scatter_response(
+                table,
+                view,
+                light,
+                sigma_b2,
+                std::f32::consts::PI - phi.abs(),
+            )
         } else {
             [0.0; 3]
         };

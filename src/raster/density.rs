@@ -510,17 +510,25 @@ impl FiberCount {
         ((n - own).max(0.0), clear)
     }
 
-    /// The count away from the light at a point of a fiber (its own share
-    /// left out as in [`Self::at_fiber`]), if this count holds it.
+    /// [`Self::at_fiber`] and the count away from the light there (its
+    /// own share left out too) when this count holds it, in one pass.
     #[inline]
-    pub fn behind_fiber(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> Option<f32> {
-        if self.behind.is_empty() {
-            return None;
-        }
-        let mut m = 0.0;
-        self.trilinear(p, |v, w| m += w * self.behind[v]);
+    pub fn at_fiber_behind(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> (f32, f32, Option<f32>) {
+        let has = !self.behind.is_empty();
+        let (mut n, mut clear, mut m) = (0.0, 0.0, 0.0);
+        let inside = self.trilinear(p, |v, w| {
+            n += w * self.n[v][0];
+            clear += w * self.n[v][1];
+            if has {
+                m += w * self.behind[v];
+            }
+        });
         let own = r * t.cross(d).length() / self.voxel;
-        Some((m - own).max(0.0))
+        (
+            (n - own).max(0.0),
+            clear + (1.0 - inside),
+            has.then(|| (m - own).max(0.0)),
+        )
     }
 
     /// Calls `f(voxel, weight)` for the trilinear weights of `p` between
@@ -684,12 +692,14 @@ mod tests {
         let tol = sigma * grid.voxel;
         let behind = |grid: &DensityGrid, light: &Light, p: Vec3| {
             let c = grid.fiber_count_with(light, true);
-            let m = c.behind_fiber(p, 0.0, Vec3::X, Vec3::Z).unwrap();
+            let (n, clear, m) = c.at_fiber_behind(p, 0.0, Vec3::X, Vec3::Z);
+            assert_eq!((n, clear), c.at_fiber(p, 0.0, Vec3::X, Vec3::Z));
             assert!(grid
                 .fiber_count(light)
-                .behind_fiber(p, 0.0, Vec3::X, Vec3::Z)
+                .at_fiber_behind(p, 0.0, Vec3::X, Vec3::Z)
+                .2
                 .is_none());
-            m
+            m.unwrap()
         };
         let dir = Light::Directional {
             direction: Vec3::Z,

@@ -85,10 +85,9 @@ impl EnvLights {
     /// hair: `(0, 1, None)`; `behind` when the counts hold it).
     #[inline]
     pub fn count(&self, k: usize, p: Vec3, r: f32, t: Vec3, d: Vec3) -> (f32, f32, Option<f32>) {
-        self.counts.get(k).map_or((0.0, 1.0, None), |c| {
-            let (n, clear) = c.at_fiber(p, r, t, d);
-            (n, clear, c.behind_fiber(p, r, t, d))
-        })
+        self.counts
+            .get(k)
+            .map_or((0.0, 1.0, None), |c| c.at_fiber_behind(p, r, t, d))
     }
 }
 

@@ -168,9 +168,7 @@ pub fn render_with_progress(
                 env,
                 opts.environment_directions,
                 opts.density_resolution,
-                two_stream(opts)
-                    && shade::multiple_scattering(&scene.hair, opts)
-                        == scene::MultipleScattering::Dual,
+                counts_behind(scene, opts),
             ))
         }
         _ => None,
@@ -327,14 +325,15 @@ fn fiber_counts(scene: &Scene, opts: &RenderOptions) -> Vec<Option<density::Fibe
     scene
         .lights
         .iter()
-        .map(|l| wanted(l).then(|| grid.fiber_count_with(l, two_stream(opts))))
+        .map(|l| wanted(l).then(|| grid.fiber_count_with(l, counts_behind(scene, opts))))
         .collect()
 }
 
-/// Whether dual scattering's back scattering is the two-stream slab's (the
-/// fiber counts then hold the count away from each light too).
-fn two_stream(opts: &RenderOptions) -> bool {
+/// Whether the fiber counts hold the count away from each light too: dual
+/// scattering with the two-stream back scattering (nothing else reads it).
+fn counts_behind(scene: &Scene, opts: &RenderOptions) -> bool {
     opts.dual_backscatter == scene::Backscatter::TwoStream
+        && shade::multiple_scattering(&scene.hair, opts) == scene::MultipleScattering::Dual
 }
 
 /// Per-vertex shading of segments clipped at the near plane: a clipped end

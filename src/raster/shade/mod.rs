@@ -572,10 +572,7 @@ impl<'a> Shader<'a> {
             }
             let vis = self.hair_visibility(li, sm, p, t, v, fiber);
             let count = match (&self.dual, &self.counts[li]) {
-                (Some(_), Some(c)) => {
-                    let (n, clear) = c.at_fiber(p, fiber.radius, t, l);
-                    (n, clear, c.behind_fiber(p, fiber.radius, t, l))
-                }
+                (Some(_), Some(c)) => c.at_fiber_behind(p, fiber.radius, t, l),
                 _ => (0.0, 1.0, None),
             };
             out += self.fiber_response(l, v, t, e, vis, count);
