@@ -141,6 +141,15 @@ class KarisHair(_models.Picklable):
         out = self._native.eval_env(v, t, np.ascontiguousarray(c, dtype=dtype).reshape(-1)).reshape(n, 3)
         return out[0] if single else out
 
+    def dual_terms(self, back_density: float = 1.0) -> dict[str, np.ndarray]:
+        """The dual-scattering terms (Zinke et al. 2008) that
+        ``multiple_scattering="dual"`` renders with, integrated from R + TT
+        + TRT (the model's own multiple-scattering term is what dual
+        scattering replaces) at 65 incidences ``sin_theta`` from -1 to 1:
+        the same keys as ``ChiangHair.dual_terms``, each (65, 3). Baked
+        once per material and density (float32 evaluation)."""
+        return dict(self._native.dual_terms(float(back_density)))
+
 
 def _env_pairs(V: npt.ArrayLike, T: npt.ArrayLike) -> tuple[tuple[np.ndarray, np.ndarray], type, int, bool]:
     from . import _arrays

@@ -142,8 +142,8 @@ def render(
       stats report the number skipped and the largest skipped bound);
     - ``multiple_scattering`` ("auto", default: KarisHair's own term for
       KarisHair, none for the other models; "none"; "karis", KarisHair only;
-      "dual", ChiangHair only: dual scattering through the fiber density
-      grid, see the scene format's ``render.multiple_scattering``);
+      "dual", ChiangHair and KarisHair: dual scattering through the fiber
+      density grid, see the scene format's ``render.multiple_scattering``);
     - ``lod`` (1, all strands): the fraction of the strands drawn, in
       (0, 1], each drawn ``1/lod`` times as wide so that the hair's area
       and opacity are kept (a fixed pseudo-random subset, nested as the

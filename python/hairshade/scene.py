@@ -53,9 +53,12 @@ A scene file::
   ``density`` and dual scattering).
 - ``render.multiple_scattering``: ``auto`` (default: KarisHair's own term
   for KarisHair, none for the others), ``none``, ``karis`` (KarisHair only)
-  or ``dual`` (ChiangHair only: dual scattering through the density grid,
-  Zinke et al. 2008, tables integrated from the material's far field; see
-  ``ChiangHair.dual_terms``); ``dual_forward_density`` (0 to 1, default
+  or ``dual`` (ChiangHair and KarisHair: dual scattering through the
+  density grid, Zinke et al. 2008, tables integrated from the material's
+  far field, see ``ChiangHair.dual_terms`` and ``KarisHair.dual_terms``;
+  KarisHair's own term is then
+  off and an environment is shaded as lights with fiber counts, as for
+  ChiangHair); ``dual_forward_density`` (0 to 1, default
   0.7) and ``dual_back_density`` (0 to 1, default 1) are its d_f and d_b
   (chosen by measurement against path-traced heads, docs/dense_hair.md);
   ``dual_backscatter``: ``local`` (default: Zinke's local back scattering

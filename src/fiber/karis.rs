@@ -218,6 +218,17 @@ impl<T: Real> KarisLobes<T> {
     }
 }
 
+/// R, TT and TRT of one evaluation as `lobe_p = g(width_p, x − shift_p) · rest_p`
+/// with `x = sin θL + sin θV` (see [`KarisHair::parts`]).
+#[derive(Debug, Clone, Copy)]
+pub struct KarisParts<T> {
+    pub x: T,
+    pub cos_theta_d: T,
+    pub width: [T; 3],
+    pub shift: [T; 3],
+    pub rest: [[T; 3]; 3],
+}
+
 /// The Karis / UE4 hair model for one parameter set.
 #[derive(Debug, Clone)]
 pub struct KarisHair<T: Real> {
@@ -402,8 +413,10 @@ impl<T: Real> KarisHair<T> {
         }
     }
 
+    /// R as `g(width, x − shift) · rest` with `x = sin θL + sin θV`
+    /// (the parts of [`KarisParts`]).
     #[inline(always)]
-    fn lobe_r(&self, g: &Geometry<T>) -> T {
+    fn parts_r(&self, g: &Geometry<T>) -> (T, T, T) {
         let (sa, ca) = (self.sin_alpha_r, self.cos_alpha_r);
         let cos_v = (T::ONE - g.sin_v * g.sin_v).max(T::ZERO).sqrt();
         let shift = T::TWO * sa * (ca * g.cos_half_phi * cos_v + sa * g.sin_v);
@@ -412,23 +425,32 @@ impl<T: Real> KarisHair<T> {
         } else {
             T::ONE
         };
-        let m_p = gaussian(self.b[0] * b_scale, g.sin_l + g.sin_v - shift);
         let n_p = T::from_f64(0.25) * g.cos_half_phi;
         let f_p = self.schlick(saturate(T::HALF + T::HALF * g.vol).sqrt());
         let back = T::ONE + (self.backlit - T::ONE) * saturate(-g.vol);
-        m_p * n_p * f_p * self.specular2 * back
+        (
+            self.b[0] * b_scale,
+            shift,
+            n_p * f_p * self.specular2 * back,
+        )
     }
 
     #[inline(always)]
-    fn lobe_tt(&self, g: &Geometry<T>) -> [T; 3] {
-        let m_p = gaussian(self.b[1], g.sin_l + g.sin_v - self.alpha[1]);
+    fn lobe_r(&self, g: &Geometry<T>) -> T {
+        let (width, shift, rest) = self.parts_r(g);
+        gaussian(width, g.sin_l + g.sin_v - shift) * rest
+    }
+
+    /// TT without its M_p (width B_TT, shift α_TT).
+    #[inline(always)]
+    fn rest_tt(&self, g: &Geometry<T>) -> [T; 3] {
         let a = T::ONE / eta_prime_fit(g.cos_theta_d);
         let h = h_tt_fit(g.cos_phi, a);
         let f = self.schlick(g.cos_theta_d * saturate(T::ONE - h * h).sqrt());
         let f_p = (T::ONE - f) * (T::ONE - f);
         let ha2 = (h * a) * (h * a);
         let n_p = d_tt_fit(g.cos_phi);
-        let k = m_p * n_p * f_p * self.backlit;
+        let k = n_p * f_p * self.backlit;
         let t_p: [T; 3] = match self.absorption {
             Absorption::Legacy => {
                 let e = T::HALF * (T::ONE - ha2).max(T::ZERO).sqrt() / g.cos_theta_d;
@@ -447,14 +469,47 @@ impl<T: Real> KarisHair<T> {
     }
 
     #[inline(always)]
-    fn lobe_trt(&self, g: &Geometry<T>) -> [T; 3] {
-        let m_p = gaussian(self.b[2], g.sin_l + g.sin_v - self.alpha[2]);
+    fn lobe_tt(&self, g: &Geometry<T>) -> [T; 3] {
+        let m_p = gaussian(self.b[1], g.sin_l + g.sin_v - self.alpha[1]);
+        self.rest_tt(g).map(|x| m_p * x)
+    }
+
+    /// TRT without its M_p (width B_TRT, shift α_TRT).
+    #[inline(always)]
+    fn rest_trt(&self, g: &Geometry<T>) -> [T; 3] {
         let f = self.schlick(g.cos_theta_d * T::HALF);
         let f_p = (T::ONE - f) * (T::ONE - f) * f;
         let n_p = d_trt_fit(g.cos_phi);
         let e = T::from_f64(0.8) / g.cos_theta_d;
-        let k = m_p * n_p * f_p;
+        let k = n_p * f_p;
         self.color.map(|c| k * pow(c, e))
+    }
+
+    #[inline(always)]
+    fn lobe_trt(&self, g: &Geometry<T>) -> [T; 3] {
+        let m_p = gaussian(self.b[2], g.sin_l + g.sin_v - self.alpha[2]);
+        self.rest_trt(g).map(|x| m_p * x)
+    }
+
+    /// R, TT and TRT split into their longitudinal Gaussians and the rest
+    /// (what dual scattering widens and what it averages over azimuth);
+    /// disabled lobes have a zero rest.
+    pub fn parts(&self, l: &Vec3<T>, v: &Vec3<T>, t: &Vec3<T>) -> KarisParts<T> {
+        let g = self.geometry(l, v, t);
+        let c = self.components;
+        let (w_r, s_r, rest_r) = self.parts_r(&g);
+        let zero = [T::ZERO; 3];
+        KarisParts {
+            x: g.sin_l + g.sin_v,
+            cos_theta_d: g.cos_theta_d,
+            width: [w_r, self.b[1], self.b[2]],
+            shift: [s_r, self.alpha[1], self.alpha[2]],
+            rest: [
+                if c.r { [rest_r; 3] } else { zero },
+                if c.tt { self.rest_tt(&g) } else { zero },
+                if c.trt { self.rest_trt(&g) } else { zero },
+            ],
+        }
     }
 
     /// Kajiya-Kay diffuse attenuation (UE's `KajiyaKayDiffuseAttenuation`).
@@ -581,93 +636,4 @@ fn pow<T: Real>(c: T, e: T) -> T {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn unit(v: [f64; 3]) -> [f64; 3] {
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        v.map(|x| x / n)
-    }
-
-    #[test]
-    fn t01_lobes_sum_to_eval() {
-        let m: KarisHair<f64> = KarisParams {
-            scatter: 0.7,
-            ..Default::default()
-        }
-        .build()
-        .unwrap();
-        let tr = Transmittance {
-            shadow: 0.4,
-            global_scattering: [0.8, 0.7, 0.6],
-            local_scattering: [0.1, 0.05, 0.0],
-            opaque_visibility: 0.9,
-        };
-        let (l, v, t) = (
-            unit([0.3, 0.5, 0.8]),
-            unit([-0.4, 0.2, 0.9]),
-            unit([0.0, 1.0, 0.1]),
-        );
-        let lobes = m.lobes(&l, &v, &t, &tr);
-        let e = m.eval(&l, &v, &t, &tr);
-        for c in 0..3 {
-            let s = lobes.r[c] + lobes.tt[c] + lobes.trt[c] + lobes.ms[c];
-            assert!((s - e[c]).abs() < 1e-15 && s > 0.0);
-        }
-    }
-
-    #[test]
-    fn t02_disabled_lobes_are_zero_and_others_unchanged() {
-        let all: KarisHair<f64> = KarisParams::default().build().unwrap();
-        let only_tt = all.with_components(Components {
-            r: false,
-            tt: true,
-            trt: false,
-            ms: false,
-        });
-        let tr = Transmittance::default();
-        let (l, v, t) = (
-            unit([0.3, -0.5, -0.8]),
-            unit([-0.4, 0.2, 0.9]),
-            unit([0.1, 1.0, 0.0]),
-        );
-        let a = all.lobes(&l, &v, &t, &tr);
-        let b = only_tt.lobes(&l, &v, &t, &tr);
-        assert_eq!(a.tt, b.tt);
-        assert_eq!(b.r, [0.0; 3]);
-        assert_eq!(b.trt, [0.0; 3]);
-        assert_eq!(b.ms, [0.0; 3]);
-    }
-
-    #[test]
-    fn t03_degenerate_geometry_is_finite() {
-        let m: KarisHair<f32> = KarisParams {
-            scatter: 1.0,
-            base_color: [0.0, 0.0, 0.0],
-            ..Default::default()
-        }
-        .build()
-        .unwrap();
-        let t = [0.0f32, 1.0, 0.0];
-        for (l, v) in [
-            (t, t),
-            ([0.0, -1.0, 0.0], t),
-            ([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]),
-            ([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]),
-        ] {
-            let e = m.eval(
-                &l,
-                &v,
-                &t,
-                &Transmittance {
-                    shadow: 0.3,
-                    ..Default::default()
-                },
-            );
-            assert!(
-                e.iter().all(|x| x.is_finite() && *x >= 0.0),
-                "{l:?} {v:?} {e:?}"
-            );
-        }
-    }
-}
+mod tests;

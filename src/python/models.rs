@@ -14,6 +14,7 @@ use crate::batch::{
 use crate::fiber::chiang::{azimuthal_scale, longitudinal_variance};
 use crate::fiber::chiang::{ChiangFarTable, TableSize};
 use crate::fiber::deon::{DEonHair, DEonParams};
+use crate::fiber::dual::DualTable;
 use crate::fiber::karis::{Absorption, Components, KarisHair, KarisInputs, KarisParams};
 use crate::fiber::{ChiangHair, ChiangParams, I0Mode};
 use numpy::PyArrayMethods;
@@ -234,41 +235,12 @@ impl PyChiangHair {
     }
 
     /// The dual-scattering terms over the incidence nodes (sin θ from -1 to
-    /// 1): a dict of float64 arrays, (nodes,) for `sin_theta` and
-    /// (nodes, 3) for each term (see `crate::fiber::dual`).
+    /// 1): see [`dual_dict`].
     #[pyo3(signature = (back_density=1.0))]
     fn dual_terms<'py>(&self, py: Python<'py>, back_density: f64) -> PyResult<Bound<'py, PyDict>> {
-        if !(0.0..=1.0).contains(&back_density) {
-            return Err(PyValueError::new_err(format!(
-                "back_density: must be in [0, 1], got {back_density}"
-            )));
-        }
-        let dual = without_gil(py, || self.table().dual(back_density as f32));
-        let nodes = dual.nodes();
-        let d = PyDict::new(py);
-        let k = nodes.len();
-        let u: Vec<f64> = (0..k)
-            .map(|i| -1.0 + 2.0 * i as f64 / (k - 1) as f64)
-            .collect();
-        d.set_item("sin_theta", numpy::PyArray1::from_vec(py, u))?;
-        type Get = fn(&crate::fiber::dual::DualTerms) -> [f32; 3];
-        let fields: [(&str, Get); 9] = [
-            ("a_f", |t| t.a_f),
-            ("a_b", |t| t.a_b),
-            ("alpha_f", |t| t.alpha_f),
-            ("beta_f2", |t| t.beta_f2),
-            ("alpha_b", |t| t.alpha_b),
-            ("beta_b2", |t| t.beta_b2),
-            ("A_b", |t| t.big_a_b),
-            ("delta_b", |t| t.delta_b),
-            ("sigma_b2", |t| t.sigma_b2),
-        ];
-        for (name, get) in fields {
-            let flat: Vec<f64> = nodes.iter().flat_map(|t| get(t).map(f64::from)).collect();
-            let a = numpy::PyArray1::from_vec(py, flat).reshape([k, 3])?;
-            d.set_item(name, a)?;
-        }
-        Ok(d)
+        let d_b = back_density_arg(back_density)?;
+        let dual = without_gil(py, || self.table().dual(d_b));
+        dual_dict(py, &dual)
     }
 
     /// Solid-angle density of `sample`: one value per pair.
@@ -340,6 +312,47 @@ pub fn chiang_longitudinal_variance(beta_m: f64) -> f64 {
 #[pyfunction]
 pub fn chiang_azimuthal_scale(beta_n: f64) -> f64 {
     azimuthal_scale(beta_n)
+}
+
+/// `back_density` checked to lie in [0, 1].
+fn back_density_arg(back_density: f64) -> PyResult<f32> {
+    if !(0.0..=1.0).contains(&back_density) {
+        return Err(PyValueError::new_err(format!(
+            "back_density: must be in [0, 1], got {back_density}"
+        )));
+    }
+    Ok(back_density as f32)
+}
+
+/// A dual-scattering table's terms as a dict of float64 arrays:
+/// (nodes,) for `sin_theta` and (nodes, 3) for each term (see
+/// `crate::fiber::dual`).
+fn dual_dict<'py>(py: Python<'py>, dual: &DualTable) -> PyResult<Bound<'py, PyDict>> {
+    let nodes = dual.nodes();
+    let d = PyDict::new(py);
+    let k = nodes.len();
+    let u: Vec<f64> = (0..k)
+        .map(|i| -1.0 + 2.0 * i as f64 / (k - 1) as f64)
+        .collect();
+    d.set_item("sin_theta", numpy::PyArray1::from_vec(py, u))?;
+    type Get = fn(&crate::fiber::dual::DualTerms) -> [f32; 3];
+    let fields: [(&str, Get); 9] = [
+        ("a_f", |t| t.a_f),
+        ("a_b", |t| t.a_b),
+        ("alpha_f", |t| t.alpha_f),
+        ("beta_f2", |t| t.beta_f2),
+        ("alpha_b", |t| t.alpha_b),
+        ("beta_b2", |t| t.beta_b2),
+        ("A_b", |t| t.big_a_b),
+        ("delta_b", |t| t.delta_b),
+        ("sigma_b2", |t| t.sigma_b2),
+    ];
+    for (name, get) in fields {
+        let flat: Vec<f64> = nodes.iter().flat_map(|t| get(t).map(f64::from)).collect();
+        let a = numpy::PyArray1::from_vec(py, flat).reshape([k, 3])?;
+        d.set_item(name, a)?;
+    }
+    Ok(d)
 }
 
 /// Karis 2016 / UE4 hair shading (flat-array interface; see `hairshade.KarisHair`).
@@ -450,6 +463,16 @@ impl PyKarisHair {
             let coeffs = std::array::from_fn(|k| [sh[3 * k], sh[3 * k + 1], sh[3 * k + 2]]);
             compute(py, 3 * n, |o| karis_eval_env(m, v, t, &coeffs, o))
         })
+    }
+
+    /// The dual-scattering terms of R + TT + TRT (the model's own
+    /// multiple-scattering term left out) over the incidence nodes: see
+    /// [`dual_dict`]. Baked once per material and density and kept.
+    #[pyo3(signature = (back_density=1.0))]
+    fn dual_terms<'py>(&self, py: Python<'py>, back_density: f64) -> PyResult<Bound<'py, PyDict>> {
+        let d_b = back_density_arg(back_density)?;
+        let dual = without_gil(py, || DualTable::for_karis_cached(&self.m32, d_b));
+        dual_dict(py, &dual)
     }
 }
 

@@ -591,12 +591,6 @@ pub fn render<'py>(
     let (opts, _) = read_options(options)?;
     let ms = crate::raster::shade::multiple_scattering(&scene.hair, &opts);
     match (&scene.hair, ms) {
-        (HairShading::Karis(_), MultipleScattering::Dual) => {
-            return Err(err(
-                "multiple_scattering",
-                "'dual' is not available for KarisHair yet (use 'karis' or 'none')",
-            ))
-        }
         (HairShading::ChiangFar(_) | HairShading::DEon(_), MultipleScattering::Karis) => {
             return Err(err(
                 "multiple_scattering",

@@ -40,8 +40,7 @@
 use super::density::{DensityGrid, FiberCount};
 use super::env_light::EnvLights;
 use super::scene::{Light, Scene, Sphere};
-use crate::fiber::chiang::ChiangFarTable;
-use crate::fiber::dual::DualTable;
+use crate::fiber::dual::{DualTable, FarField};
 use glam::Vec3;
 
 /// Latitude and longitude cells of the radiance map of a sphere.
@@ -169,7 +168,7 @@ impl SphereBounce {
     /// towards `v` of the light the spheres reflect (ChiangHair `table`).
     pub fn radiance(
         &self,
-        table: &ChiangFarTable,
+        far: FarField,
         dual: &DualTable,
         p: Vec3,
         r: f32,
@@ -191,7 +190,7 @@ impl SphereBounce {
             let (n, _) = s.count.at_fiber(p, r, t, -m);
             out += s.lookup(m)
                 * (-(Vec3::ONE - a_f) * n).exp()
-                * half_space_response(table, dual, t, v, -m)
+                * half_space_response(far, dual, t, v, -m)
                 * share;
         }
         out
@@ -200,22 +199,11 @@ impl SphereBounce {
 
 /// `∫ f(v, ω) dω` over the directions ω of the half-space around `w`
 /// (unit, normal to the tangent `t`): what a fiber scatters towards `v` of
-/// unit radiance arriving from that half-space. It holds the azimuths
-/// within π/2 of `w`'s, at every θ, so with `∫ M_p cos θ dθ = 1` it is
-/// `Σ_{p<3} ∫_{φ_w − π/2}^{φ_w + π/2} N̄_p dφ + Ā_3 / 2 = π Σ_{p<3} N^G_p(φ_w) + Ā_3 / 2`
-/// (the residual p ≥ 3 is spread evenly over the 2π of azimuth).
-fn half_space_response(
-    table: &ChiangFarTable,
-    dual: &DualTable,
-    t: Vec3,
-    v: Vec3,
-    w: Vec3,
-) -> Vec3 {
+/// unit radiance arriving from that half-space ([`FarField::half_space`]:
+/// the azimuths within π/2 of `w`'s, at every θ).
+fn half_space_response(far: FarField, dual: &DualTable, t: Vec3, v: Vec3, w: Vec3) -> Vec3 {
     let g = super::shade::FiberAngles::new(t, v, w);
-    let ng = dual.ng(g.view.1, g.phi);
-    let (_, a3) = table.azimuthal(g.view.1, g.phi);
-    let windows = Vec3::from(ng[0]) + Vec3::from(ng[1]) + Vec3::from(ng[2]);
-    windows * std::f32::consts::PI + Vec3::from(a3) * 0.5
+    Vec3::from(far.half_space(dual, g.view, g.phi))
 }
 
 impl SphereLight {
@@ -239,7 +227,7 @@ impl SphereLight {
 mod tests {
     use super::*;
 
-    use crate::fiber::chiang::TableSize;
+    use crate::fiber::chiang::{ChiangFarTable, TableSize};
     use crate::math::gauss_legendre;
 
     /// 2. The half-space response against direct quadrature of the
@@ -292,7 +280,7 @@ mod tests {
                             want += f * wu * (std::f32::consts::PI / k_phi as f32);
                         }
                     }
-                    let got = half_space_response(&table, &dual, t, v, w);
+                    let got = half_space_response(FarField::Chiang(&table), &dual, t, v, w);
                     let err = (got - want).abs().max_element() / want.max_element();
                     worst = worst.max(err);
                     assert!(

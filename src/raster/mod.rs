@@ -161,16 +161,19 @@ pub fn render_with_progress(
     let traced = (opts.shadow_model == shadow::ShadowModel::Traced)
         .then(|| traced::SegmentGrid::new(&world))
         .flatten();
-    let env_lights = match (&scene.environment, &scene.hair) {
-        (Some(env), scene::HairShading::ChiangFar(_) | scene::HairShading::DEon(_)) => {
-            Some(env_light::EnvLights::new(
-                scene,
-                env,
-                opts.environment_directions,
-                opts.density_resolution,
-                counts_behind(scene, opts),
-            ))
-        }
+    // KarisHair shades an environment by its SH fake-normal lobes, except
+    // under dual scattering, which needs the fiber count towards each
+    // direction.
+    let sh_lobes = matches!(scene.hair, scene::HairShading::Karis(_))
+        && shade::multiple_scattering(&scene.hair, opts) != scene::MultipleScattering::Dual;
+    let env_lights = match &scene.environment {
+        Some(env) if !sh_lobes => Some(env_light::EnvLights::new(
+            scene,
+            env,
+            opts.environment_directions,
+            opts.density_resolution,
+            counts_behind(scene, opts),
+        )),
         _ => None,
     };
     let shader = Shader::new(

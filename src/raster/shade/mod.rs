@@ -14,7 +14,7 @@ use super::density::FiberCount;
 use super::scene::{HairShading, MultipleScattering, RenderOptions, Scene};
 use super::shadow::{ShadowMap, NO_STRAND};
 use super::traced::SegmentGrid;
-use crate::fiber::dual::DualTable;
+use crate::fiber::dual::{DualTable, FarField};
 use crate::fiber::karis::Transmittance;
 use crate::lighting::sh9_eval;
 use crate::threads::pool;
@@ -86,7 +86,7 @@ pub struct Shader<'a> {
     /// Per light, the fiber count towards it (shadow model `density`, and
     /// dual scattering).
     counts: Vec<Option<FiberCount>>,
-    /// Dual scattering: the material's tables and d_f (ChiangHair).
+    /// Dual scattering: the material's tables and d_f (ChiangHair, KarisHair).
     dual: Option<(Arc<DualTable>, f32)>,
     /// Whether hair's own shadow comes from the fiber count (shadow model
     /// `density`).
@@ -140,7 +140,7 @@ impl<'a> Shader<'a> {
         let hair = match &scene.hair {
             HairShading::Karis(k)
                 if k.components().ms
-                    && (ms == MultipleScattering::None || skip_unused && k.scatter_is_zero()) =>
+                    && (ms != MultipleScattering::Karis || skip_unused && k.scatter_is_zero()) =>
             {
                 let mut c = k.components();
                 c.ms = false;
@@ -148,20 +148,25 @@ impl<'a> Shader<'a> {
             }
             other => other.clone(),
         };
+        let dual_ms = ms == MultipleScattering::Dual;
+        // Under dual scattering KarisHair takes the environment as lights
+        // with fiber counts, as the far-field models do.
         let env_model = match (&scene.environment, &hair) {
-            (Some(_), HairShading::Karis(k)) => Some(k.environment_variant()),
+            (Some(_), HairShading::Karis(k)) if !dual_ms => Some(k.environment_variant()),
             _ => None,
         };
+        // (the bound holds the single scattering only, not dual's terms)
         let f_max = match &hair {
-            HairShading::Karis(k) if cull_threshold > 0.0 => Some(k.upper_bound()),
+            HairShading::Karis(k) if cull_threshold > 0.0 && !dual_ms => Some(k.upper_bound()),
             _ => None,
         };
-        let dual = match (&hair, ms) {
-            (HairShading::ChiangFar(c), MultipleScattering::Dual) => {
-                Some((c.dual(opts.dual_back_density), opts.dual_forward_density))
-            }
+        let d_b = opts.dual_back_density;
+        let dual = match (&hair, dual_ms) {
+            (HairShading::ChiangFar(c), true) => Some(c.dual(d_b)),
+            (HairShading::Karis(k), true) => Some(DualTable::for_karis_cached(k, d_b)),
             _ => None,
-        };
+        }
+        .map(|t| (t, opts.dual_forward_density));
         let near = opts.near_field
             && matches!(opts.transparency, super::scene::Transparency::Coverage(_))
             && !opts.vertex_shading
@@ -213,7 +218,7 @@ impl<'a> Shader<'a> {
     /// scattering) on their vector kernels.
     pub fn batches(&self) -> bool {
         match &self.hair {
-            HairShading::Karis(k) => !k.fast_asin(),
+            HairShading::Karis(k) => !k.fast_asin() && self.dual.is_none(),
             HairShading::ChiangFar(_) => self.dual.is_none(),
             HairShading::DEon(_) => false,
         }
@@ -509,11 +514,11 @@ impl<'a> Shader<'a> {
         vis: f32,
         count: (f32, f32, Option<f32>),
     ) -> Vec3 {
-        if let (Some((dual, d_f)), HairShading::ChiangFar(c)) = (&self.dual, &self.hair) {
+        if let (Some((dual, d_f)), Some(far)) = (&self.dual, self.far_field()) {
             let g = FiberAngles::new(t, v, l);
             let (n, clear, behind) = count;
             return Vec3::from(
-                dual.shade_chiang(c, g.view, g.light, g.phi, vis, n, clear, *d_f, behind),
+                dual.shade(far, g.view, g.light, g.phi, vis, n, clear, *d_f, behind),
             ) * e;
         }
         if vis <= 0.0 {
@@ -541,6 +546,15 @@ impl<'a> Shader<'a> {
             HairShading::DEon(d) => Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array())),
         };
         f * e * vis
+    }
+
+    /// The far field dual scattering shades with (None: DEonHair).
+    fn far_field(&self) -> Option<FarField<'_>> {
+        match &self.hair {
+            HairShading::ChiangFar(c) => Some(FarField::Chiang(c)),
+            HairShading::Karis(k) => Some(FarField::Karis(k)),
+            HairShading::DEon(_) => None,
+        }
     }
 
     /// Radiance scattered by hair at `p` with tangent `t` towards the eye `v`.
@@ -604,10 +618,10 @@ impl<'a> Shader<'a> {
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             out += Vec3::from(m.dispatch(EnvOne { v, t, sh: &env.sh }));
         }
-        if let (Some(bounce), Some((dual, _)), HairShading::ChiangFar(c)) =
-            (&self.bounce, &self.dual, &self.hair)
+        if let (Some(bounce), Some((dual, _)), Some(far)) =
+            (&self.bounce, &self.dual, self.far_field())
         {
-            out += bounce.radiance(c, dual, p, fiber.radius, t, v);
+            out += bounce.radiance(far, dual, p, fiber.radius, t, v);
         }
         out
     }
