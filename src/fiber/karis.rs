@@ -417,6 +417,16 @@ impl<T: Real> KarisHair<T> {
     /// (the parts of [`KarisParts`]).
     #[inline(always)]
     fn parts_r(&self, g: &Geometry<T>) -> (T, T, T) {
+        let (width, shift) = self.spread_r(g);
+        let n_p = T::from_f64(0.25) * g.cos_half_phi;
+        let f_p = self.schlick(saturate(T::HALF + T::HALF * g.vol).sqrt());
+        let back = T::ONE + (self.backlit - T::ONE) * saturate(-g.vol);
+        (width, shift, n_p * f_p * self.specular2 * back)
+    }
+
+    /// R's longitudinal Gaussian: (width, shift).
+    #[inline(always)]
+    fn spread_r(&self, g: &Geometry<T>) -> (T, T) {
         let (sa, ca) = (self.sin_alpha_r, self.cos_alpha_r);
         let cos_v = (T::ONE - g.sin_v * g.sin_v).max(T::ZERO).sqrt();
         let shift = T::TWO * sa * (ca * g.cos_half_phi * cos_v + sa * g.sin_v);
@@ -425,14 +435,7 @@ impl<T: Real> KarisHair<T> {
         } else {
             T::ONE
         };
-        let n_p = T::from_f64(0.25) * g.cos_half_phi;
-        let f_p = self.schlick(saturate(T::HALF + T::HALF * g.vol).sqrt());
-        let back = T::ONE + (self.backlit - T::ONE) * saturate(-g.vol);
-        (
-            self.b[0] * b_scale,
-            shift,
-            n_p * f_p * self.specular2 * back,
-        )
+        (self.b[0] * b_scale, shift)
     }
 
     #[inline(always)]
@@ -509,6 +512,20 @@ impl<T: Real> KarisHair<T> {
                 if c.tt { self.rest_tt(&g) } else { zero },
                 if c.trt { self.rest_trt(&g) } else { zero },
             ],
+        }
+    }
+
+    /// [`Self::parts`] without the rests (left zero): the lobes'
+    /// longitudinal Gaussians alone, at a fraction of the cost.
+    pub fn spreads(&self, l: &Vec3<T>, v: &Vec3<T>, t: &Vec3<T>) -> KarisParts<T> {
+        let g = self.geometry(l, v, t);
+        let (w_r, s_r) = self.spread_r(&g);
+        KarisParts {
+            x: g.sin_l + g.sin_v,
+            cos_theta_d: g.cos_theta_d,
+            width: [w_r, self.b[1], self.b[2]],
+            shift: [s_r, self.alpha[1], self.alpha[2]],
+            rest: [[T::ZERO; 3]; 3],
         }
     }
 

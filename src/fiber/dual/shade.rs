@@ -1,7 +1,7 @@
 //! Shading with the dual-scattering tables: the effective far field of a
 //! fiber inside hair (see the module docs of [`super`]).
 
-use super::bake::karis_parts;
+use super::bake::{canonical, karis_parts};
 use super::{gauss, DualTable, DualTerms};
 use crate::fiber::chiang::ChiangFarTable;
 use crate::fiber::karis::KarisHair;
@@ -54,7 +54,8 @@ impl FarField<'_> {
                 })
             }
             FarField::Karis(model) => {
-                let p = karis_parts(model, view, light, phi);
+                let [l, v, t] = canonical(view, light, phi);
+                let p = model.spreads(&l, &v, &t);
                 let ng = dual.ng(p.cos_theta_d, phi);
                 let m = std::array::from_fn::<f32, 3, _>(|i| {
                     gaussian((p.width[i] * p.width[i] + sigma2).sqrt(), p.x - p.shift[i])

@@ -140,3 +140,21 @@ fn t04_parts_rebuild_the_lobes() {
         assert!(p.rest[0][0] > 0.0 && p.rest[2][0] > 0.0);
     }
 }
+
+// 05: `spreads` is `parts` without the rests: the same x, cos θd, widths
+// and shifts, bit for bit.
+#[test]
+fn t05_spreads_are_the_parts_gaussians() {
+    let m: KarisHair<f32> = KarisParams::default().build().unwrap();
+    let (l, v, t) = (
+        [0.3f32, 0.5, 0.81],
+        [-0.4f32, 0.2, 0.89],
+        [0.0f32, 1.0, 0.0],
+    );
+    let (p, s) = (m.parts(&l, &v, &t), m.spreads(&l, &v, &t));
+    assert_eq!(
+        (p.x, p.cos_theta_d, p.width, p.shift),
+        (s.x, s.cos_theta_d, s.width, s.shift)
+    );
+    assert_eq!(s.rest, [[0.0; 3]; 3]);
+}
