@@ -330,3 +330,25 @@ def test_12_karis_dual_only_adds_light():
     assert (dual >= none - 1e-6 * none.max()).all()
     assert dual.mean() > 1.05 * none.mean(), (dual.mean(), none.mean())
     assert np.abs(dual - karis).mean() > 0.01 * karis.mean()
+
+
+@pytest.mark.slow
+def test_13_karis_dual_on_the_demo_head_against_path_tracing():
+    # The demo head (KarisHair; the truth is Mitsuba on the ChiangHair that
+    # hairshade.mapping fits to it, 2 x 2048 spp, halves relMSE 5.5e-3),
+    # with the scene's MLAB and shadow maps, measured (docs/dense_hair.md):
+    #   karis (the model's own term)  1.093/1.084/1.048  relMSE 4.45e-2
+    #   dual                          0.957/0.967/0.977  relMSE 7.43e-3
+    # Dual's relMSE is within twice the reference's own noise, so the gate
+    # is on what the reference resolves: dual at most half of karis's
+    # relMSE (measured 0.17x) and every channel within 6% of the truth
+    # (measured 4.3% at worst; karis: 9.3%).
+    d = json.loads((DENSE / "demo_head.json").read_text())
+    ref = hs.read_exr(str(DENSE / "demo_head.exr"))[..., :3]
+    karis = hs.render(hs.Scene.from_dict(d), multiple_scattering="karis")
+    dual = hs.render(hs.Scene.from_dict(d), multiple_scattering="dual")
+    e_karis, e_dual = hs.rel_mse(karis, ref), hs.rel_mse(dual, ref)
+    ratio = dual.reshape(-1, 3).mean(0) / ref.reshape(-1, 3).mean(0)
+    print(f"demo_head: karis {e_karis:.3e}, dual {e_dual:.3e}, ratio {np.round(ratio, 3)}")
+    assert e_dual < 0.5 * e_karis, (e_dual, e_karis)
+    assert np.abs(ratio - 1).max() < 0.06, ratio
