@@ -229,6 +229,18 @@ pub struct KarisParts<T> {
     pub rest: [[T; 3]; 3],
 }
 
+impl<T: Real> KarisParts<T> {
+    /// R + TT + TRT, each lobe's Gaussian at least `min_width` wide
+    /// (0: the lobes as they are).
+    pub fn total(&self, min_width: T) -> [T; 3] {
+        let m: [T; 3] =
+            std::array::from_fn(|i| gaussian(self.width[i].max(min_width), self.x - self.shift[i]));
+        std::array::from_fn(|c| {
+            m[0] * self.rest[0][c] + m[1] * self.rest[1][c] + m[2] * self.rest[2][c]
+        })
+    }
+}
+
 /// The Karis / UE4 hair model for one parameter set.
 #[derive(Debug, Clone)]
 pub struct KarisHair<T: Real> {

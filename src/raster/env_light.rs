@@ -1,4 +1,5 @@
-//! The environment light for far-field fiber models (ChiangHair, DEonHair).
+//! The environment light for far-field fiber models (ChiangHair, DEonHair)
+//! and for KarisHair under dual scattering.
 //!
 //! The radiance a fiber scatters towards the viewer from a band-2 SH
 //! environment `L(ω)` is `∫ f(v, ω) L(ω) V(ω) dω`. It is computed by a fixed
@@ -18,7 +19,7 @@
 //! noise. Measured against path tracing on `tests/data/dense/blond_env`.
 
 use super::density::{DensityGrid, FiberCount};
-use super::scene::{Environment, Light, Scene};
+use super::scene::{Environment, HairShading, Light, MultipleScattering, Scene};
 use crate::lighting::sh9_eval;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -27,6 +28,14 @@ use rayon::prelude::*;
 /// `render.environment_directions`.
 pub const DIRECTIONS: usize = 32;
 pub const DIRECTIONS_RANGE: (usize, usize) = (8, 1024);
+
+/// Whether an environment is shaded as these lights with fiber counts:
+/// for every model but KarisHair, which shades it by its SH fake-normal
+/// lobes, except under dual scattering (which needs the count towards each
+/// direction).
+pub fn as_lights(hair: &HairShading, ms: MultipleScattering) -> bool {
+    !matches!(hair, HairShading::Karis(_)) || ms == MultipleScattering::Dual
+}
 
 /// The environment as directional lights, with the fiber count towards each.
 pub struct EnvLights {

@@ -114,12 +114,9 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions, ms: MultipleScattering) -> 
         let voxels = density_voxels(scene, opts.density_resolution);
         items.push(("density grid", voxels * (28 * 9 + per_light * shadowed)));
     }
-    if scene.environment.is_some()
-        && (!matches!(scene.hair, super::scene::HairShading::Karis(_))
-            || ms == MultipleScattering::Dual)
-    {
-        // The environment light of a far-field model: a grid at a quarter
-        // resolution, the counts per voxel for each direction.
+    if scene.environment.is_some() && super::env_light::as_lights(&scene.hair, ms) {
+        // The environment as lights: a grid at a quarter resolution, the
+        // counts per voxel for each direction.
         let voxels = density_voxels(scene, (opts.density_resolution / 4).max(16));
         items.push((
             "environment fiber counts",

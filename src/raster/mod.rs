@@ -161,13 +161,10 @@ pub fn render_with_progress(
     let traced = (opts.shadow_model == shadow::ShadowModel::Traced)
         .then(|| traced::SegmentGrid::new(&world))
         .flatten();
-    // KarisHair shades an environment by its SH fake-normal lobes, except
-    // under dual scattering, which needs the fiber count towards each
-    // direction.
-    let sh_lobes = matches!(scene.hair, scene::HairShading::Karis(_))
-        && shade::multiple_scattering(&scene.hair, opts) != scene::MultipleScattering::Dual;
+    let as_lights =
+        env_light::as_lights(&scene.hair, shade::multiple_scattering(&scene.hair, opts));
     let env_lights = match &scene.environment {
-        Some(env) if !sh_lobes => Some(env_light::EnvLights::new(
+        Some(env) if as_lights => Some(env_light::EnvLights::new(
             scene,
             env,
             opts.environment_directions,

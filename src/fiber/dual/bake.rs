@@ -95,16 +95,9 @@ impl DualTable {
             let cos = |u: f64| (1.0 - u * u).max(0.0).sqrt();
             let view = (u_o as f32, cos(u_o) as f32);
             let light = (u_l as f32, cos(u_l) as f32);
-            let p = karis_parts(&model, view, light, phi as f32);
-            std::array::from_fn(|ch| {
-                (0..3)
-                    .map(|i| {
-                        let width = p.width[i].max(MIN_WIDTH);
-                        let m = crate::fiber::lobes::gaussian(width, p.x - p.shift[i]);
-                        (m * p.rest[i][ch]) as f64
-                    })
-                    .sum::<f64>()
-            })
+            karis_parts(&model, view, light, phi as f32)
+                .total(MIN_WIDTH)
+                .map(f64::from)
         };
         let terms = Self::terms_of(&f, d_b as f64);
         let ng = window_average(&|cos_d, phi| {

@@ -23,12 +23,7 @@ impl FarField<'_> {
                 let l = table.lobes_from_angles(view, light, phi);
                 std::array::from_fn(|c| l[0][c] + l[1][c] + l[2][c] + l[3][c])
             }
-            FarField::Karis(model) => {
-                let p = karis_parts(model, view, light, phi);
-                let m =
-                    std::array::from_fn::<f32, 3, _>(|i| gaussian(p.width[i], p.x - p.shift[i]));
-                std::array::from_fn(|c| (0..3).map(|i| m[i] * p.rest[i][c]).sum())
-            }
+            FarField::Karis(model) => karis_parts(model, view, light, phi).total(0.0),
         }
     }
 

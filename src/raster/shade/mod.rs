@@ -149,10 +149,10 @@ impl<'a> Shader<'a> {
             other => other.clone(),
         };
         let dual_ms = ms == MultipleScattering::Dual;
-        // Under dual scattering KarisHair takes the environment as lights
-        // with fiber counts, as the far-field models do.
         let env_model = match (&scene.environment, &hair) {
-            (Some(_), HairShading::Karis(k)) if !dual_ms => Some(k.environment_variant()),
+            (Some(_), HairShading::Karis(k)) if !super::env_light::as_lights(&hair, ms) => {
+                Some(k.environment_variant())
+            }
             _ => None,
         };
         // (the bound holds the single scattering only, not dual's terms)
