@@ -31,7 +31,7 @@ def _materials() -> list[tuple[str, dict]]:
                                                   azimuthal_roughness=bn)))
     for path in sorted(DENSE.glob("*.json")):
         m = dict(json.loads(path.read_text())["hair"]["material"])
-        if m.pop("model") == "chiang":  # demo_head is KarisHair
+        if m.pop("model") == "chiang":  # demo_head and card_head are KarisHair
             out.append((path.stem, m))
     return out
 

@@ -343,12 +343,64 @@ def test_13_karis_dual_on_the_demo_head_against_path_tracing():
     # is on what the reference resolves: dual at most half of karis's
     # relMSE (measured 0.17x) and every channel within 6% of the truth
     # (measured 4.3% at worst; karis: 9.3%).
-    d = json.loads((DENSE / "demo_head.json").read_text())
-    ref = hs.read_exr(str(DENSE / "demo_head.exr"))[..., :3]
+    e_karis, e_dual, ratio = _karis_and_dual_against_truth("demo_head")
+    assert e_dual < 0.5 * e_karis, (e_dual, e_karis)
+    assert np.abs(ratio - 1).max() < 0.06, ratio
+
+
+def _karis_and_dual_against_truth(name: str) -> tuple[float, float, np.ndarray]:
+    """relMSE of a dense KarisHair scene rendered with `karis` and with
+    `dual` against its reference, and dual's mean per channel over the
+    truth's."""
+    d = json.loads((DENSE / f"{name}.json").read_text())
+    ref = hs.read_exr(str(DENSE / f"{name}.exr"))[..., :3]
     karis = hs.render(hs.Scene.from_dict(d), multiple_scattering="karis")
     dual = hs.render(hs.Scene.from_dict(d), multiple_scattering="dual")
     e_karis, e_dual = hs.rel_mse(karis, ref), hs.rel_mse(dual, ref)
     ratio = dual.reshape(-1, 3).mean(0) / ref.reshape(-1, 3).mean(0)
-    print(f"demo_head: karis {e_karis:.3e}, dual {e_dual:.3e}, ratio {np.round(ratio, 3)}")
+    print(f"{name}: karis {e_karis:.3e}, dual {e_dual:.3e}, ratio {np.round(ratio, 3)}")
+    return e_karis, e_dual, ratio
+
+
+@pytest.mark.slow
+def test_14_cards_under_dual_scattering_against_path_tracing():
+    # The card head (KarisHair on 600 baked cards; the truth is Mitsuba on
+    # the 16 800 fibers the cards stand for, with the ChiangHair fitted to
+    # the material, 2 x 2048 spp, halves relMSE 4.7e-3), the scene's MLAB
+    # and opacity shadow maps, measured (docs/dense_hair.md):
+    #   karis (the model's own term)  1.050/1.056/1.037  relMSE 3.04e-2
+    #   dual                          0.968/0.978/0.988  relMSE 1.16e-2
+    #   dual without the cards' fibers in the grid: 1.048/1.063/1.061, 3.4e-2
+    # Gates: every channel within the issue's 15% (measured 3.2% at worst:
+    # the gate is 5%, which the fiber-less grid's 6.3% fails) and dual at
+    # most half of karis's relMSE (measured 0.38x).
+    e_karis, e_dual, ratio = _karis_and_dual_against_truth("card_head")
+    assert np.abs(ratio - 1).max() < 0.05, ratio
     assert e_dual < 0.5 * e_karis, (e_dual, e_karis)
-    assert np.abs(ratio - 1).max() < 0.06, ratio
+
+
+def test_15_card_fibers_fill_the_density_grid():
+    # Baked cards hand their fibers to the renderer's density grid: under
+    # dual scattering the environment (shaded as directions, each dimmed by
+    # the fibers crossed towards it; the key light's single scattering is
+    # the shadow map's) reaches cards inside the head through other cards,
+    # so the head is darker than when the same cards come without fibers
+    # (no fiber count: an unshadowed environment; measured 0.61x), and no
+    # pixel is NaN. Without dual scattering the fibers are not read: the
+    # images are equal.
+    d = json.loads((pathlib.Path(__file__).parent.parent / "examples" / "card_head.json").read_text())
+    d["camera"]["resolution"] = [96, 54]
+    images = {}
+    for fibers in (True, False):
+        for ms in ("dual", "karis"):
+            scene = hs.Scene.from_dict(d)
+            if not fibers:
+                scene.cards["fibers"] = None
+            images[fibers, ms] = hs.render(scene, multiple_scattering=ms)
+    assert np.isfinite(images[True, "dual"]).all()
+    # the hair's pixels: those that are not the background (the environment)
+    hair = np.abs(images[True, "karis"] - np.array(d["lights"][1]["radiance"], np.float32)).max(-1) > 1e-3
+    with_f, without = images[True, "dual"][hair].mean(), images[False, "dual"][hair].mean()
+    print("with / without fibers:", with_f / without)
+    assert with_f < 0.95 * without
+    assert np.array_equal(images[True, "karis"], images[False, "karis"])

@@ -62,10 +62,11 @@ def test_01_rasterizer_matches_mitsuba_reference(name):
 #   single_strand 9.3e-5 (3.1e-7)    0.016 (0.002)       +16% (sharp R on a
 #                                                        B-spline vs polyline)
 #   backlit_bundle 6.1e-2 (6.0e-4)   0.055 (0.008)       -11% (shadowing)
-#   card_head     1.1e-2 (1.5e-4)    0.148 (0.030)       +33% (Mitsuba: the
-#                 baked cards' fibers as real, occluding geometry; ours:
-#                 alpha cards under exponential shadow falloff)
-KARIS_THRESHOLDS = {"single_strand": (1.4e-4, 0.025), "backlit_bundle": (8e-2, 0.08), "card_head": (1.6e-2, 0.2)}
+#   card_head     3.2e-3 (1.5e-4)    0.140 (0.030)       +1.0-1.6% (Mitsuba:
+#                 the baked cards' fibers as real, occluding geometry; ours:
+#                 opacity shadow maps of the cards' alpha. Under Karis's
+#                 exponential falloff: 1.1e-2, 0.148, +33%)
+KARIS_THRESHOLDS = {"single_strand": (1.4e-4, 0.025), "backlit_bundle": (8e-2, 0.08), "card_head": (5e-3, 0.2)}
 
 
 @pytest.mark.parametrize("name", list(KARIS_CASES))

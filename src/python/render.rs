@@ -364,7 +364,8 @@ type LightArgs = (String, [f32; 3], [f32; 3], bool);
 type SphereArgs = ([f32; 3], f32, [f32; 3]);
 
 /// Cards as flat arrays: corners (Q·4·3), UVs (Q·4·2), tangents (Q·3), a
-/// texture index per quad, and the textures (width, height, alpha).
+/// texture index per quad, the textures (width, height, alpha), and the
+/// fibers baked cards stand for (points, radii, offsets; or None).
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 pub struct CardArgs<'py> {
@@ -373,7 +374,16 @@ pub struct CardArgs<'py> {
     tangents: PyReadonlyArray1<'py, f32>,
     texture: PyReadonlyArray1<'py, u32>,
     textures: Vec<(u32, u32, PyReadonlyArray1<'py, f32>)>,
+    fibers: Option<StrandArgs<'py>>,
 }
+
+/// Strands as flat arrays: points (V·3), radii (V), offsets (S + 1).
+#[derive(FromPyObject)]
+pub struct StrandArgs<'py>(
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, u32>,
+);
 
 /// Opaque triangles as a tuple of flat arrays: positions (T·9), albedos
 /// (T·3) and the mesh each belongs to.
@@ -439,7 +449,17 @@ fn build_cards(cards: Option<CardArgs<'_>>) -> PyResult<Cards> {
     if ti.iter().any(|&i| i as usize >= tex.len()) {
         return Err(err("cards", "texture index out of range"));
     }
+    let fibers = match &a.fibers {
+        None => Strands::default(),
+        Some(StrandArgs(p, r, o)) => build_strands(
+            slice(p, "cards.fibers")?,
+            slice(r, "cards.fibers")?,
+            slice(o, "cards.fibers")?,
+            "cards.fibers",
+        )?,
+    };
     Ok(Cards {
+        fibers,
         corners: c.chunks_exact(3).map(Vec3::from_slice).collect(),
         uvs: u.chunks_exact(2).map(|x| [x[0], x[1]]).collect(),
         tangents: t.chunks_exact(3).map(Vec3::from_slice).collect(),
@@ -472,15 +492,12 @@ fn build_triangles(triangles: Option<TriangleArgs<'_>>) -> PyResult<Vec<OpaqueTr
         .collect())
 }
 
-fn build_scene(a: SceneArgs<'_>) -> PyResult<Scene> {
-    let (pts, rad, off) = (
-        slice(&a.points, "points")?,
-        slice(&a.radii, "radii")?,
-        slice(&a.offsets, "offsets")?,
-    );
+/// Strands from flat points, radii and offsets; `name` names the
+/// arrays in errors.
+fn build_strands(pts: &[f32], rad: &[f32], off: &[u32], name: &str) -> PyResult<Strands> {
     if pts.len() != 3 * rad.len() {
         return Err(err(
-            "points, radii",
+            name,
             format!("{} points but {} radii", pts.len() / 3, rad.len()),
         ));
     }
@@ -490,10 +507,24 @@ fn build_scene(a: SceneArgs<'_>) -> PyResult<Scene> {
         || *off.last().unwrap() as usize != rad.len()
     {
         return Err(err(
-            "offsets",
-            "must start at 0, not decrease, and end at the number of points",
+            name,
+            "offsets must start at 0, not decrease, and end at the number of points",
         ));
     }
+    Ok(Strands {
+        points: pts.chunks_exact(3).map(Vec3::from_slice).collect(),
+        radii: rad.to_vec(),
+        offsets: off.to_vec(),
+    })
+}
+
+fn build_scene(a: SceneArgs<'_>) -> PyResult<Scene> {
+    let strands = build_strands(
+        slice(&a.points, "points")?,
+        slice(&a.radii, "radii")?,
+        slice(&a.offsets, "offsets")?,
+        "points, radii, offsets",
+    )?;
     let cam = a.camera;
     let max = RenderOptions::MAX_RESOLUTION;
     if cam.4 == 0 || cam.5 == 0 || cam.4 > max || cam.5 > max {
@@ -554,11 +585,7 @@ fn build_scene(a: SceneArgs<'_>) -> PyResult<Scene> {
         },
         lights,
         environment,
-        strands: Strands {
-            points: pts.chunks_exact(3).map(Vec3::from_slice).collect(),
-            radii: rad.to_vec(),
-            offsets: off.to_vec(),
-        },
+        strands,
         cards: build_cards(a.cards)?,
         triangles: build_triangles(a.triangles)?,
         spheres: a

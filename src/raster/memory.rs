@@ -45,27 +45,8 @@ pub fn shadow_map_bytes(n: u32, model: ShadowModel) -> u64 {
 /// Voxels of the density grid of `scene` at `resolution` (the arithmetic
 /// of [`super::density::DensityGrid::new`]); 0 without hair.
 fn density_voxels(scene: &Scene, resolution: usize) -> u64 {
-    let st = &scene.strands;
-    let (mut lo, mut hi) = (
-        glam::Vec3::splat(f32::INFINITY),
-        glam::Vec3::splat(f32::NEG_INFINITY),
-    );
-    for (p, r) in st.points.iter().zip(&st.radii) {
-        if p.is_finite() && r.is_finite() {
-            lo = lo.min(*p - glam::Vec3::splat(*r));
-            hi = hi.max(*p + glam::Vec3::splat(*r));
-        }
-    }
-    if !(lo.is_finite() && hi.is_finite()) {
-        return 0;
-    }
-    let res = resolution.clamp(4, 1024);
-    let voxel = ((hi - lo).max_element() / (res - 4) as f32).max(1e-6);
-    ((hi - lo) / voxel)
-        .to_array()
-        .iter()
-        .map(|e| (e.ceil() as u64 + 4).max(2))
-        .product()
+    super::density::grid_frame(scene, resolution)
+        .map_or(0, |(_, _, d)| d.iter().map(|&e| e as u64).product())
 }
 
 /// The estimate for rendering `scene` with `opts` and multiple scattering

@@ -128,6 +128,10 @@ pub struct Cards {
     /// Alpha texture of each quad.
     pub texture: Vec<u32>,
     pub textures: Vec<AlphaTexture>,
+    /// The fibers baked cards stand for, in world space (empty when the
+    /// cards' alpha comes from images): never drawn, they give the cards
+    /// their share of the fiber density grid ([`super::density`]).
+    pub fibers: Strands,
 }
 
 impl Cards {
