@@ -15,6 +15,7 @@ mod convert;
 mod io;
 mod models;
 mod render;
+mod scene_args;
 mod special;
 
 use pyo3::prelude::*;
