@@ -338,11 +338,11 @@ def test_13_karis_dual_on_the_demo_head_against_path_tracing():
     # hairshade.mapping fits to it, 2 x 2048 spp, halves relMSE 5.5e-3),
     # with the scene's MLAB and shadow maps, measured (docs/dense_hair.md):
     #   karis (the model's own term)  1.093/1.084/1.048  relMSE 4.45e-2
-    #   dual                          0.957/0.967/0.977  relMSE 7.43e-3
+    #   dual                          0.968/0.976/0.983  relMSE 6.62e-3
     # Dual's relMSE is within twice the reference's own noise, so the gate
     # is on what the reference resolves: dual at most half of karis's
-    # relMSE (measured 0.17x) and every channel within 6% of the truth
-    # (measured 4.3% at worst; karis: 9.3%).
+    # relMSE (measured 0.15x) and every channel within 6% of the truth
+    # (measured 3.2% at worst; karis: 9.3%).
     e_karis, e_dual, ratio = _karis_and_dual_against_truth("demo_head")
     assert e_dual < 0.5 * e_karis, (e_dual, e_karis)
     assert np.abs(ratio - 1).max() < 0.06, ratio
@@ -369,11 +369,11 @@ def test_14_cards_under_dual_scattering_against_path_tracing():
     # the material, 2 x 2048 spp, halves relMSE 4.7e-3), the scene's MLAB
     # and opacity shadow maps, measured (docs/dense_hair.md):
     #   karis (the model's own term)  1.050/1.056/1.037  relMSE 3.04e-2
-    #   dual                          0.968/0.978/0.988  relMSE 1.16e-2
+    #   dual                          0.976/0.984/0.993  relMSE 1.12e-2
     #   dual without the cards' fibers in the grid: 1.048/1.063/1.061, 3.4e-2
-    # Gates: every channel within the issue's 15% (measured 3.2% at worst:
+    # Gates: every channel within the issue's 15% (measured 2.4% at worst:
     # the gate is 5%, which the fiber-less grid's 6.3% fails) and dual at
-    # most half of karis's relMSE (measured 0.38x).
+    # most half of karis's relMSE (measured 0.37x).
     e_karis, e_dual, ratio = _karis_and_dual_against_truth("card_head")
     assert np.abs(ratio - 1).max() < 0.05, ratio
     assert e_dual < 0.5 * e_karis, (e_dual, e_karis)

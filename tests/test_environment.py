@@ -53,8 +53,8 @@ def test_01_lone_fiber_scatters_its_albedo(model, tilt):
     `at_fiber` (radius 0.05 voxel: about 2r/voxel = 0.1 fibers along its
     own length for light nearly parallel to it). DEonHair with UE's
     16-offset estimate on both sides (the same function). Measured at the
-    three tilts: ChiangHair 3e-6, 1.2e-3, 9e-3; DEonHair 2e-4, 3.4e-3,
-    2.3e-2 (short: its wider lobes take more light from directions nearly
+    three tilts: ChiangHair 7e-6, 1.1e-3, 5.3e-3; DEonHair 2.8e-4, 3.3e-3,
+    1.8e-2 (short: its wider lobes take more light from directions nearly
     along the fiber, where the leftover self-count acts); gate 3 %."""
     t = np.array([0.0, math.cos(tilt), math.sin(tilt)])
     mat = {"model": "chiang", **MAT} if model == "chiang" else {"model": "deon", "base_color": [0.4, 0.3, 0.2], "roughness": 0.4, "h_samples": 16}
@@ -77,8 +77,10 @@ def test_02_dense_head_under_an_environment_against_path_tracing():
     """blond_env (a key light and a constant environment, Mitsuba path
     traced, max_depth 64, halves relMSE 1.5e-4): coverage samples, dual
     scattering (with the light the head reflects into the hair) and traced
-    shadows (d_b = 1). Measured: ratio 0.966/0.973/0.984, relMSE 1.04e-2
-    (without the head's bounce 0.939/0.958/0.978, 1.93e-2).
+    shadows (d_b = 1). Measured: ratio 0.979/0.984/0.992, relMSE 7.30e-3
+    (the unscattered environment's fiber count read at the point instead of
+    half a voxel ahead: 0.966/0.973/0.984, 1.04e-2; without the head's
+    bounce as well: 0.939/0.958/0.978, 1.93e-2).
     Gates: relMSE at most 1.25x, every channel within 3 points of its
     measured deviation."""
     d = json.loads((DENSE / "blond_env.json").read_text())
@@ -88,8 +90,8 @@ def test_02_dense_head_under_an_environment_against_path_tracing():
     rel = hs.rel_mse(img, ref)
     ratio = img.reshape(-1, 3).mean(0) / ref.reshape(-1, 3).mean(0)
     print(f"blond_env: relMSE {rel:.3e}, ratio {np.round(ratio, 3)}")
-    assert rel <= 1.25 * 1.04e-2, rel
-    assert np.all(np.abs(ratio - 1) <= np.abs(np.array([0.966, 0.973, 0.984]) - 1) + 0.03), ratio
+    assert rel <= 1.25 * 7.30e-3, rel
+    assert np.all(np.abs(ratio - 1) <= np.abs(np.array([0.979, 0.984, 0.992]) - 1) + 0.03), ratio
 
 
 @pytest.mark.parametrize("bad", [7, 1025, 3.5])

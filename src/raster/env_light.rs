@@ -14,6 +14,17 @@
 //! `clear·e^{−n}` of each direction; with it, the dual-scattering terms of
 //! [`crate::fiber::dual`] as for a light.
 //!
+//! The `n` of the unscattered part `clear·e^{−n}` is read half a voxel
+//! towards the direction ([`UNSCATTERED_LOOKAHEAD`]): the grid spreads each
+//! fiber's cross-section over the voxels around it, so at a point on the
+//! hair's lit side `n` held about half a voxel of the hair behind the point
+//! too, and the outer layer was shadowed by the layers under it. Measured on
+//! `blond_env` without multiple scattering (coverage, 64 samples) against
+//! Mitsuba's path at max_depth 2 (256 spp): 0.988/0.989/0.992 of its mean,
+//! relMSE 5.0e-3, read at the point; 0.999/0.999/0.999, 3.5e-3, half a
+//! voxel ahead. The scattered part reads `n` at the point
+//! (light it carries has crossed the fibers around the point as well).
+//!
 //! Error: the lattice undersamples the narrowest lobes (R at low roughness);
 //! its directions are fixed, so the error is a deterministic pattern, not
 //! noise. Measured against path tracing on `tests/data/dense/blond_env`.
@@ -36,6 +47,10 @@ pub const DIRECTIONS_RANGE: (usize, usize) = (8, 1024);
 pub fn as_lights(hair: &HairShading, ms: MultipleScattering) -> bool {
     !matches!(hair, HairShading::Karis(_)) || ms == MultipleScattering::Dual
 }
+
+/// How far towards a direction, in voxels of the environment's grid, the
+/// fiber count of its unscattered light is read (see the module docs).
+pub const UNSCATTERED_LOOKAHEAD: f32 = 0.5;
 
 /// The environment as directional lights, with the fiber count towards each.
 pub struct EnvLights {
@@ -97,6 +112,18 @@ impl EnvLights {
         self.counts
             .get(k)
             .map_or((0.0, 1.0, None), |c| c.at_fiber_behind(p, r, t, d))
+    }
+
+    /// The fiber count of the unscattered light of direction `k` (towards
+    /// `d`) at `p` of a fiber of radius `r` and tangent `t`: read
+    /// [`UNSCATTERED_LOOKAHEAD`] voxels towards `d`, the fiber's own share
+    /// left out (0 without hair).
+    #[inline]
+    pub fn unscattered_count(&self, k: usize, p: Vec3, r: f32, t: Vec3, d: Vec3) -> f32 {
+        self.counts.get(k).map_or(0.0, |c| {
+            c.at_fiber(p + d * (UNSCATTERED_LOOKAHEAD * c.voxel()), r, t, d)
+                .0
+        })
     }
 }
 

@@ -301,9 +301,11 @@ impl<'a> Shader<'a> {
             for (k, light) in env.lights.iter().enumerate() {
                 for (i, p) in points.iter().enumerate() {
                     let (li, e) = light.incident(*p);
-                    let (count, clear, _) = env.count(k, *p, fibers[i].radius, tangents[i], li);
+                    let (_, clear, _) = env.count(k, *p, fibers[i].radius, tangents[i], li);
+                    let unscattered = clear
+                        * (-env.unscattered_count(k, *p, fibers[i].radius, tangents[i], li)).exp();
                     b.l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
-                    (b.irradiance[i], b.shadow[i]) = (e, clear * (-count).exp());
+                    (b.irradiance[i], b.shadow[i]) = (e, unscattered);
                 }
                 self.add_light(&mut b, out);
             }
@@ -529,7 +531,8 @@ impl<'a> Shader<'a> {
             for (k, light) in env.lights.iter().enumerate() {
                 let (l, e) = light.incident(p);
                 let (n, clear, behind) = env.count(k, p, fiber.radius, t, l);
-                out += self.fiber_response(l, v, t, e, clear * (-n).exp(), (n, clear, behind));
+                let unscattered = clear * (-env.unscattered_count(k, p, fiber.radius, t, l)).exp();
+                out += self.fiber_response(l, v, t, e, unscattered, (n, clear, behind));
             }
         }
         self.flush(tally);
