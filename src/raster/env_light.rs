@@ -15,15 +15,9 @@
 //! [`crate::fiber::dual`] as for a light.
 //!
 //! The `n` of the unscattered part `clear·e^{−n}` is read half a voxel
-//! towards the direction ([`UNSCATTERED_LOOKAHEAD`]): the grid spreads each
-//! fiber's cross-section over the voxels around it, so at a point on the
-//! hair's lit side `n` held about half a voxel of the hair behind the point
-//! too, and the outer layer was shadowed by the layers under it. Measured on
-//! `blond_env` without multiple scattering (coverage, 64 samples) against
-//! Mitsuba's path at max_depth 2 (256 spp): 0.988/0.989/0.992 of its mean,
-//! relMSE 5.0e-3, read at the point; 0.999/0.999/0.999, 3.5e-3, half a
-//! voxel ahead. The scattered part reads `n` at the point
-//! (light it carries has crossed the fibers around the point as well).
+//! towards the direction ([`super::density::UNSCATTERED_LOOKAHEAD`]); the
+//! scattered part reads `n` at the point (light it carries has crossed the
+//! fibers around the point as well).
 //!
 //! Error: the lattice undersamples the narrowest lobes (R at low roughness);
 //! its directions are fixed, so the error is a deterministic pattern, not
@@ -47,10 +41,6 @@ pub const DIRECTIONS_RANGE: (usize, usize) = (8, 1024);
 pub fn as_lights(hair: &HairShading, ms: MultipleScattering) -> bool {
     !matches!(hair, HairShading::Karis(_)) || ms == MultipleScattering::Dual
 }
-
-/// How far towards a direction, in voxels of the environment's grid, the
-/// fiber count of its unscattered light is read (see the module docs).
-pub const UNSCATTERED_LOOKAHEAD: f32 = 0.5;
 
 /// The environment as directional lights, with the fiber count towards each.
 pub struct EnvLights {
@@ -115,15 +105,13 @@ impl EnvLights {
     }
 
     /// The fiber count of the unscattered light of direction `k` (towards
-    /// `d`) at `p` of a fiber of radius `r` and tangent `t`: read
-    /// [`UNSCATTERED_LOOKAHEAD`] voxels towards `d`, the fiber's own share
-    /// left out (0 without hair).
+    /// `d`) at `p` of a fiber of radius `r` and tangent `t`
+    /// ([`FiberCount::unscattered_at`]; 0 without hair).
     #[inline]
     pub fn unscattered_count(&self, k: usize, p: Vec3, r: f32, t: Vec3, d: Vec3) -> f32 {
-        self.counts.get(k).map_or(0.0, |c| {
-            c.at_fiber(p + d * (UNSCATTERED_LOOKAHEAD * c.voxel()), r, t, d)
-                .0
-        })
+        self.counts
+            .get(k)
+            .map_or(0.0, |c| c.unscattered_at(p, r, t, d))
     }
 }
 

@@ -12,7 +12,7 @@ impl Shader<'_> {
     /// `fiber` with tangent `t`, seen from `v`: the shadow map's at the
     /// fiber's surface point facing the viewer (not its own strand's
     /// shadow), times e^-n for the fibers crossed on the way when the light
-    /// has a fiber count.
+    /// has a fiber count (read as for unscattered light).
     #[inline]
     pub(super) fn hair_visibility(
         &self,
@@ -34,7 +34,7 @@ impl Shader<'_> {
         match self.counts.get(li).and_then(Option::as_ref) {
             Some(c) if vis > 0.0 && self.count_shadows => {
                 let l = self.scene.lights[li].incident(p).0;
-                vis * (-c.at_fiber(p, fiber.radius, t, l).0).exp()
+                vis * (-c.unscattered_at(p, fiber.radius, t, l)).exp()
             }
             _ => vis,
         }
