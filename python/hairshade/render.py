@@ -186,13 +186,6 @@ def render(
     return (img, dict(stats)) if return_stats else img
 
 
-def _flat_strands(points: list[np.ndarray], radii: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Strands as the renderer's flat (points, radii, offsets)."""
-    offsets = np.concatenate([[0], np.cumsum([len(r) for r in radii])]).astype(np.uint32)
-    return (np.ascontiguousarray(np.concatenate(points), dtype=np.float32).reshape(-1),
-            np.ascontiguousarray(np.concatenate(radii), dtype=np.float32), offsets)
-
-
 def _native_scene(scene: Scene, cam: dict[str, Any]) -> dict[str, Any]:
     """The scene as the flat arrays the renderer takes."""
     f32 = lambda a: np.ascontiguousarray(a, dtype=np.float32).reshape(-1)  # noqa: E731
@@ -211,7 +204,8 @@ def _native_scene(scene: Scene, cam: dict[str, Any]) -> dict[str, Any]:
             corners=f32(cards["corners"]), uvs=f32(cards["uvs"]), tangents=f32(cards["tangents"]),
             texture=np.ascontiguousarray(cards["texture"], dtype=np.uint32),
             textures=[(t.shape[1], t.shape[0], f32(t)) for t in cards["textures"]],
-            fibers=None if cards["fibers"] is None else _flat_strands(*cards["fibers"]),
+            fibers=None if cards["fibers"] is None else (
+                f32(cards["fibers"][0]), f32(cards["fibers"][1]), cards["fibers"][2]),
         ),
         triangles=None if not meshes else (
             f32(np.concatenate([m["triangles"].reshape(-1) for m in meshes])),  # positions

@@ -503,10 +503,7 @@ def _parse(d: Any, base_dir: str, source: str,
     for sp, sr in strands or []:
         pts.append(sp)
         rads.append(sr)
-    offsets = np.zeros(len(pts) + 1, dtype=np.uint32)
-    offsets[1:] = np.cumsum([len(p) for p in pts]) if pts else []
-    points = np.concatenate(pts).astype(np.float32) if pts else np.zeros((0, 3), np.float32)
-    radii = np.concatenate(rads).astype(np.float32) if rads else np.zeros(0, np.float32)
+    points, radii, offsets = _flat_strands(pts, rads)
 
     cards = _parse_cards(hair, base_dir, c)
 
@@ -645,9 +642,20 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         tangents=np.concatenate(tangents).astype(np.float32),
         texture=np.concatenate(tex_index),
         textures=textures,
-        # The fibers baked cards stand for (None unless every card is baked).
-        fibers=(fiber_pts, fiber_rads) if all_baked else None,
+        # The fibers baked cards stand for, flat as the strands (points,
+        # radii, offsets; None unless every card is baked).
+        fibers=_flat_strands(fiber_pts, fiber_rads) if all_baked else None,
     )
+
+
+def _flat_strands(pts: list[np.ndarray], rads: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Strands given as lists of per-strand points and radii, as flat
+    float32 points (M, 3), radii (M,) and uint32 offsets (S + 1,)."""
+    offsets = np.zeros(len(pts) + 1, dtype=np.uint32)
+    offsets[1:] = np.cumsum([len(p) for p in pts]) if pts else []
+    points = np.concatenate(pts).astype(np.float32) if pts else np.zeros((0, 3), np.float32)
+    radii = np.concatenate(rads).astype(np.float32) if rads else np.zeros(0, np.float32)
+    return points, radii, offsets
 
 
 def _read_hair_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:

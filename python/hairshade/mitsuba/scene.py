@@ -67,10 +67,8 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
         d["hair"] = {"type": "bsplinecurve", "filename": strand_file, "bsdf": _curve_bsdf(scene, hair_bsdf, hair_params)}
     if scene.cards is not None:
         if cards_as_fibers and scene.cards["fibers"] is not None:
-            fpts, frads = scene.cards["fibers"]
-            off = np.concatenate([[0], np.cumsum([len(x) for x in fpts])])
             path = os.path.join(os.path.dirname(strand_file), "card_fibers.txt")
-            cp, cr, co = _clamped_controls(np.concatenate(fpts), np.concatenate(frads), off)
+            cp, cr, co = _clamped_controls(*scene.cards["fibers"])
             write_strand_file(path, cp, cr, co)
             d["card_fibers"] = {"type": "bsplinecurve", "filename": path, "bsdf": _curve_bsdf(scene, hair_bsdf, hair_params)}
         else:

@@ -115,11 +115,9 @@ impl DualTable {
         let sigma_f2 = (n * beta_f2).min(4.0);
         let scattered: [f32; 3] =
             std::array::from_fn(|c| clear * ((-n * (1.0 - t.a_f[c])).exp() - (-n).exp()).max(0.0));
-        let f_scatter = if scattered.iter().any(|&s| s > 0.0) {
+        let f_scatter = where_any(&scattered, || {
             far.scatter_response(self, view, light, sigma_f2, phi)
-        } else {
-            [0.0; 3]
-        };
+        });
         let d_b = self.d_b;
         for c in 0..3 {
             let dev = x - t.delta_b[c];
@@ -173,12 +171,10 @@ impl DualTable {
             fwd[c] = clear * (i_plus - (-n).exp()).max(0.0);
             bwd[c] = clear * i_minus;
         }
-        let f_fwd = if fwd.iter().any(|&s| s > 0.0) {
+        let f_fwd = where_any(&fwd, || {
             far.scatter_response(self, view, light, sigma_f2, phi.abs())
-        } else {
-            [0.0; 3]
-        };
-        let f_bwd = if bwd.iter().any(|&s| s > 0.0) {
+        });
+        let f_bwd = where_any(&bwd, || {
             far.scatter_response(
                 self,
                 view,
@@ -186,9 +182,7 @@ impl DualTable {
                 sigma_b2,
                 std::f32::consts::PI - phi.abs(),
             )
-        } else {
-            [0.0; 3]
-        };
+        });
         std::array::from_fn(|c| {
             let v = p0 * single[c] + d_f * fwd[c] * f_fwd[c] + bwd[c] * f_bwd[c];
             if v.is_finite() {
@@ -197,6 +191,17 @@ impl DualTable {
                 0.0
             }
         })
+    }
+}
+
+/// `response()` where some channel of `weights` is positive (it is then
+/// read), else 0 (not evaluated: the scatter response is the costly part).
+#[inline]
+fn where_any(weights: &[f32; 3], response: impl FnOnce() -> [f32; 3]) -> [f32; 3] {
+    if weights.iter().any(|&w| w > 0.0) {
+        response()
+    } else {
+        [0.0; 3]
     }
 }
 
