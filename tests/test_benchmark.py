@@ -2,6 +2,8 @@
 the numbers themselves are measurements, not test conditions)."""
 
 import csv
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -55,3 +57,32 @@ def test_bench_plot_draws_every_row(tmp_path):
         colour = np.round(np.array(colors[i]) * 255).astype(int)
         count = int(np.all(px == colour, axis=-1).sum())
         assert count >= 50, f"row {i}: {count} pixels of its colour"
+
+
+def test_render_bench_steps_checked_and_merged(tmp_path):
+    """`--render-steps` names steps of bench_render.STEPS (anything else is
+    an error naming the allowed ones, before any work), and `merge` puts a
+    partial run's rows in place of the same steps' rows of the committed
+    CSV, keeping the others and the order of the steps."""
+    from hairshade import bench_render
+
+    with pytest.raises(ValueError, match="steps: expected names among frame"):
+        bench_render.render_runtime_vs_error(steps=("dense", "bogus"), progress_bar=False)
+    row = lambda section, scene, variant, ms: dict(  # noqa: E731
+        section=section, scene=scene, variant=variant, width=320, height=180, threads="all", spp=0, ms=ms, rel_mse=0.1)
+    old = [row("frame", "strand_head", "cold", 1.0),
+           row("error", "single_strand", "rasterizer (chiang)", 2.0),
+           row("error", "auburn_key", "rasterizer (chiang, old label)", 3.0),
+           row("mitsuba", "auburn_key", "mitsuba path (chiang)", 4.0),
+           row("strands", "strand_head", "1000 strands", 5.0)]
+    path = tmp_path / "bench_render.csv"
+    bench_render.write_csv(old, str(path))
+    new = [dict(row("error", "ginger_two", "rasterizer (chiang, default)", 6.0), step="dense")]
+    merged = bench_render.merge(bench_render.read_csv(str(path)), new)
+    # the dense heads' old rows (whatever their labels) are gone; the
+    # single-strand comparison (step `error`) and the other steps stay
+    assert [(r["scene"], r["ms"]) for r in merged] == [
+        ("strand_head", 1.0), ("single_strand", 2.0), ("ginger_two", 6.0), ("strand_head", 5.0)]
+    r = subprocess.run([sys.executable, "-m", "hairshade.cli", "bench", "--render-only", "--render-steps", "dense,x"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "--render-steps: expected comma-separated names among" in r.stderr

@@ -24,7 +24,7 @@ and noisy; compare ratios, not absolute times). Rows (CSV columns
   the ratio is an upper bound) or ``>=`` (256 spp do not: a lower bound).
 - ``error``, ``mitsuba``, ``equal_error`` on the dense heads of the
   dense-hair comparison (tests/data/dense, 10k strands, 320x180): the
-  rasterizer by default and in its most accurate configuration (coverage
+  rasterizer by default and in its most accurate configuration (64 coverage
   samples, dual scattering, traced shadows), against the converged
   path-traced truth (max_depth 64); Mitsuba with that same integrator
   (``path``, max_depth 64) at 1 to 64 spp.
@@ -39,6 +39,10 @@ and noisy; compare ratios, not absolute times). Rows (CSV columns
 - ``threads``: the strand head at 1280x720 on one thread and on all.
 - ``skip``: each skip on and off on the scene where it acts, with the
   image difference (0 = bit-identical).
+
+The run goes through the steps of ``STEPS`` in order; ``steps`` picks some
+of them (``hairshade bench --render-steps dense``), and :func:`merge` puts
+their rows in place of the same step's rows of an earlier run's CSV.
 """
 
 from __future__ import annotations
@@ -63,6 +67,7 @@ RESOLUTIONS = ((640, 360), (1280, 720), (1920, 1080))
 SPP = (1, 4, 16, 64, 256)
 STRANDS = (1000, 3000, 10000, 30000, 100000)
 KEYS = ["section", "scene", "variant", "width", "height", "threads", "spp", "ms", "rel_mse"]
+STEPS = ("frame", "models", "lod", "error", "dense", "strands", "threads", "skip")
 
 
 def _example(name: str) -> dict[str, Any]:
@@ -127,17 +132,22 @@ def equal_error_ratio(raster_ms: float, raster_err: float, mitsuba: list[tuple[f
 
 
 def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str | None = None,
-                            progress_bar: bool = True) -> list[dict[str, Any]]:
-    """All rows (see the module doc). ``fast``: small resolutions and spp,
-    fewer strands (for the notebook and the tests)."""
+                            progress_bar: bool = True, steps: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
+    """All rows (see the module doc), or those of ``steps`` (names of
+    ``STEPS``). ``fast``: small resolutions and spp, fewer strands (for the
+    notebook and the tests)."""
+    if steps is not None:
+        unknown = [s for s in steps if s not in STEPS]
+        if unknown or not steps:
+            raise ValueError(f"steps: expected names among {', '.join(STEPS)}, got {list(steps)!r}")
     data = data_dir or REFERENCES
     rows: list[dict[str, Any]] = []
     resolutions = ((160, 90), (320, 180)) if fast else RESOLUTIONS
     spps = (1, 4) if fast else SPP
     strands = (300, 1000, 3000) if fast else STRANDS
     head_strands = 3000 if fast else None
-    steps = ["frame", "models", "lod", "error", "dense", "strands", "threads", "skip"]
-    bar = progress(steps, desc="render bench", enabled=progress_bar)
+    todo = [s for s in STEPS if steps is None or s in steps]
+    bar = progress(todo, desc="render bench", enabled=progress_bar)
 
     def head(n: int | None = None) -> dict[str, Any]:
         d = _example("strand_head")
@@ -146,6 +156,7 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
         return d
 
     for step in bar:
+        first = len(rows)
         if step == "frame":
             for name in ("single_strand", "backlit_bundle", "strand_head", "card_head"):
                 d = head(head_strands) if name == "strand_head" else _example(name)
@@ -224,7 +235,28 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
                 rows.append(_row("threads", "strand_head", "", w, h, threads, ms=t))
         elif step == "skip":
             rows += _skips(fast, repeats, head(head_strands))
+        for r in rows[first:]:
+            r["step"] = step
     return rows
+
+
+def step_of(row: dict[str, Any]) -> str:
+    """The step of ``STEPS`` a row comes from (rows read back from a CSV do
+    not carry it: the dense heads' rows are ``dense``'s, the sections
+    ``error``, ``mitsuba`` and ``equal_error`` otherwise ``error``'s)."""
+    if "step" in row:
+        return row["step"]
+    if row["section"] in ("error", "mitsuba", "equal_error"):
+        return "dense" if row["scene"] in DENSE_SCENES else "error"
+    return row["section"]
+
+
+def merge(old: list[dict[str, Any]], new: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """An earlier run's rows with those of the steps ``new`` ran replaced by
+    ``new``'s, in the order of ``STEPS``."""
+    ran = {step_of(r) for r in new}
+    rows = [r for r in old if step_of(r) not in ran] + new
+    return sorted(rows, key=lambda r: STEPS.index(step_of(r)))  # stable: each step keeps its order
 
 
 def _models(fast: bool, repeats: int) -> list[dict[str, Any]]:
@@ -253,13 +285,15 @@ def _models(fast: bool, repeats: int) -> list[dict[str, Any]]:
     return out
 
 
-DENSE_SCENES = ("auburn_key", "blond_back", "black_top", "brown_side", "blond_env")
+DENSE_SCENES = ("auburn_key", "blond_back", "black_top", "brown_side", "blond_env", "ginger_two")
 DENSE_SPP = (1, 4, 16, 64)
 # The rasterizer's configurations on the dense heads: its defaults, and the
 # most accurate one of docs/dense_hair.md.
 DENSE_CONFIGS: dict[str, dict[str, Any]] = {
     "default": {},
-    "coverage+dual+traced": dict(transparency="coverage", multiple_scattering="dual", shadow_model="traced"),
+    "coverage 64+dual+traced": dict(
+        transparency="coverage", samples=64, multiple_scattering="dual", shadow_model="traced"
+    ),
 }
 
 

@@ -79,7 +79,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
         args.render = not args.bsdf_only
     if args.bsdf_only and args.render_only:
         raise ValueError("--bsdf-only and --render-only exclude each other")
-    renders = args.render or args.render_only
+    steps = tuple(args.render_steps.split(",")) if args.render_steps else None
+    if steps is not None and (not steps or any(st not in bench_render.STEPS for st in steps)):
+        raise ValueError(f"--render-steps: expected comma-separated names among {', '.join(bench_render.STEPS)}, "
+                         f"got {args.render_steps!r}")
+    renders = args.render or args.render_only or steps is not None
     _extras.check(MITSUBA, "hairshade bench", ["mitsuba"])
     if args.plot or args.out:
         _extras.check(["matplotlib"], "hairshade bench --plot/--out")
@@ -104,9 +108,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
             print(f"wrote {args.plot}")
     if renders:
         rrows = bench_render.render_runtime_vs_error(fast=args.fast, repeats=min(args.repeats, 3),
-                                                     progress_bar=not args.no_progress)
+                                                     progress_bar=not args.no_progress, steps=steps)
         print(bench_render.summary(rrows))
         if args.out:
+            old = os.path.join(args.out, "bench_render.csv")
+            if steps is not None and os.path.exists(old):
+                # the other steps' rows of the earlier run stay
+                rrows = bench_render.merge(bench_render.read_csv(old), rrows)
             for ext, fn in (("csv", bench_render.write_csv), ("png", bench_render.plot)):
                 path = os.path.join(args.out, f"bench_render.{ext}")
                 fn(rrows, path)
@@ -323,6 +331,10 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("--fast", action="store_true", help="skip the slow DEonHair rows; small renders")
     b.add_argument("--render", action="store_true", help="also the rendering benchmark (frame times, Mitsuba spp sweep)")
     b.add_argument("--render-only", action="store_true", help="only the rendering benchmark")
+    b.add_argument("--render-steps", default=None,
+                   help="comma-separated steps of the rendering benchmark to run (frame, models, lod, error, dense, "
+                        "strands, threads, skip; default all); with --out their rows replace those steps' rows "
+                        "of the CSV there")
     b.add_argument("--bsdf-only", action="store_true", help="with --out: only the BSDF benchmark")
     b.add_argument("--out", default=None, help="write every CSV and plot (BSDF and rendering) into this folder")
     b.add_argument("--no-progress", action="store_true")
