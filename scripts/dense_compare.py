@@ -346,7 +346,9 @@ def main() -> None:
         "scattering adds), each swapped in turn for the truth's: Mitsuba's direct light (max_depth 2, the two",
         f"halves of {SINGLE_SPP} spp above) and the converged truth minus it. relMSE against the converged truth;",
         "multiple scattering: its mean per channel over the truth's. The direct light's own noise is a quarter of",
-        "its halves' relMSE.",
+        "its halves' relMSE. Where in the image it lies, block by block, for the two blond heads:",
+        "[blond_back](dense/blond_back_error.md), [blond_env](dense/blond_env_error.md)",
+        "(`python scripts/error_map.py --scene NAME --out docs/dense`).",
         "",
         "| scene | relMSE | with the truth's single scattering | with the truth's multiple scattering "
         "| multiple scattering R / G / B | direct light's noise |",
