@@ -1,0 +1,183 @@
+//! The end of a tile: its collected hair fragments shaded (in one batch
+//! where the model has a vector kernel; in coverage mode only those that
+//! own a sample), and the resolve of every pixel (the transparency layers
+//! composited over the opaque surface; non-finite pixels become 0 and are
+//! counted).
+
+use super::{Tile, TileMemory, TileResult};
+use crate::raster::bin::TILE;
+use crate::raster::shade::Fiber;
+use crate::raster::shadow::ShadowModel;
+use glam::Vec3;
+
+impl Tile<'_> {
+    /// The collected fragments, shaded in one batch and composited in the
+    /// order they were produced.
+    pub(super) fn shade_pending(&mut self) {
+        if self.samples.is_some() {
+            self.shade_visible();
+            return;
+        }
+        if !self.deferred {
+            return;
+        }
+        let p = &self.pending;
+        let mut colors = vec![Vec3::ZERO; p.k.len()];
+        self.ctx
+            .shader
+            .shade_serial(&p.p, &p.t, &p.fiber, self.ctx.view.eye, &mut colors);
+        for (i, c) in colors.into_iter().enumerate() {
+            self.layers.add(p.k[i] as usize, p.depth[i], c, p.alpha[i]);
+        }
+    }
+
+    /// Coverage mode: the fragments that own a sample, shaded (in one batch
+    /// where the model has a vector kernel); the others are never shaded.
+    fn shade_visible(&mut self) {
+        let Some((_, buf)) = &self.samples else {
+            return;
+        };
+        if self.ctx.opts.vertex_shading {
+            // every fragment already carries its interpolated radiance
+            return;
+        }
+        let p = &mut self.pending;
+        let mut counts = vec![0u32; p.k.len()];
+        buf.counts(&mut counts);
+        let visible: Vec<usize> = (0..counts.len()).filter(|&i| counts[i] > 0).collect();
+        let eye = self.ctx.view.eye;
+        p.near.clear();
+        p.near.resize(p.k.len(), (0, 0));
+        p.lights.clear();
+        if self.ctx.shader.near_field() {
+            // strands: all but the lights' single scattering, which each
+            // sample adds by the near field (`pixel`)
+            for &i in &visible {
+                let v = (eye - p.p[i]).normalize_or_zero();
+                p.color[i] = if p.line[i][0].is_nan() {
+                    self.ctx.shader.shade(p.p[i], p.t[i], v, p.fiber[i])
+                } else {
+                    let start = p.lights.len() as u32;
+                    let c =
+                        self.ctx
+                            .shader
+                            .shade_split(p.p[i], p.t[i], v, p.fiber[i], &mut p.lights);
+                    p.near[i] = (start, p.lights.len() as u32);
+                    c
+                };
+            }
+        } else if self.ctx.shader.batches() {
+            let pts: Vec<Vec3> = visible.iter().map(|&i| p.p[i]).collect();
+            let tan: Vec<Vec3> = visible.iter().map(|&i| p.t[i]).collect();
+            let fib: Vec<Fiber> = visible.iter().map(|&i| p.fiber[i]).collect();
+            let mut colors = vec![Vec3::ZERO; visible.len()];
+            self.ctx
+                .shader
+                .shade_serial(&pts, &tan, &fib, eye, &mut colors);
+            for (&i, c) in visible.iter().zip(colors) {
+                p.color[i] = c;
+            }
+        } else {
+            for &i in &visible {
+                p.color[i] = self.ctx.shader.shade(
+                    p.p[i],
+                    p.t[i],
+                    (eye - p.p[i]).normalize_or_zero(),
+                    p.fiber[i],
+                );
+            }
+        }
+    }
+
+    /// Pixel `k`: the layers composited over the opaque radiance, or in
+    /// coverage mode the mean over its samples of the owner's radiance
+    /// (the opaque radiance where no hair covers a sample). The opaque
+    /// radiance is computed only where it is seen: where the hair's
+    /// transmittance is above 0, or above the hair-culling cutoff (which
+    /// bounds what is left out by cutoff × its radiance, as for the hair
+    /// behind).
+    fn pixel(&mut self, k: usize) -> Vec3 {
+        match &self.samples {
+            Some((pts, buf)) => {
+                // Traced shadows are exact per point: an opaque surface is
+                // then shaded where each uncovered sample sees it, not once
+                // at the pixel centre (a fiber's shadow is thinner than a
+                // pixel; one point made it 0 or 1 for the whole pixel).
+                let per_sample =
+                    self.surface[k].is_some() && self.ctx.opts.shadow_model == ShadowModel::Traced;
+                let mut c = Vec3::ZERO;
+                let mut uncovered = 0u32;
+                let pd = &self.pending;
+                for (o, xy) in buf.owners(k).zip(pts.pixel(k)) {
+                    match o {
+                        Some(i) if pd.near.get(i as usize).is_some_and(|r| r.1 > r.0) => {
+                            // the near field at the sample's offset
+                            let i = i as usize;
+                            let (l, (a, b)) = (pd.line[i], pd.near[i]);
+                            let h = (xy[0] - l[0]) * l[2] + (xy[1] - l[1]) * l[3];
+                            let v = (self.ctx.view.eye - pd.p[i]).normalize_or_zero();
+                            let lights = &pd.lights[a as usize..b as usize];
+                            c += pd.color[i]
+                                + self.ctx.shader.near_single(
+                                    pd.t[i],
+                                    v,
+                                    h.clamp(-1.0, 1.0),
+                                    lights,
+                                );
+                        }
+                        Some(i) => c += pd.color[i as usize],
+                        None if per_sample => c += self.surface_at(k, *xy),
+                        None => uncovered += 1,
+                    }
+                }
+                if uncovered > 0 {
+                    c += self.base(k) * uncovered as f32;
+                }
+                c / buf.n as f32
+            }
+            None => {
+                let (c, t) = self.layers.composite(k);
+                if t > self.ctx.opts.hair_cull_transmittance.max(0.0) {
+                    c + self.base(k) * t
+                } else {
+                    c
+                }
+            }
+        }
+    }
+
+    /// The pixels resolved (non-finite pixels become 0 and are counted),
+    /// and the tile's buffers for the next tile.
+    pub(super) fn resolve(mut self) -> (TileResult, TileMemory) {
+        let mut pixels = vec![0.0f32; (TILE * TILE * 3) as usize];
+        let mut non_finite = 0u64;
+        for j in 0..self.th {
+            for i in 0..self.tw {
+                let k = (j * TILE + i) as usize;
+                let col = self.pixel(k);
+                if col.is_finite() {
+                    pixels[3 * k..3 * k + 3].copy_from_slice(&col.to_array());
+                } else {
+                    non_finite += 1;
+                }
+            }
+        }
+        let result = TileResult {
+            pixels,
+            fragments: self.fragments,
+            non_finite,
+            culled: self.culled,
+            hair_culled: self.hair_culled,
+        };
+        let memory = TileMemory {
+            opaque_depth: self.opaque_depth,
+            surface: self.surface,
+            layers: Some(self.layers),
+            pending: self.pending,
+            hair: self.hair.or(self.spare_hair),
+            order: self.order,
+            sorted: self.sorted,
+        };
+        (result, memory)
+    }
+}
