@@ -121,16 +121,32 @@ SINGLE = dict(transparency="coverage", multiple_scattering="none", shadow_model=
 SINGLE_SPP = 512
 
 
+def render_best(d: dict, **opts) -> np.ndarray:
+    """Scene dict `d` rendered in the most accurate configuration (BEST),
+    changed by `opts`."""
+    dd = json.loads(json.dumps(d))
+    dd["render"].update(BEST, **opts)
+    return hs.render(hs.Scene.from_dict(dd), progress=False)
+
+
+def direct_halves(d: dict, spp: int = SINGLE_SPP) -> list[np.ndarray]:
+    """Mitsuba's direct light of scene dict `d` (path, max_depth 2), two
+    independent halves of `spp` samples each (seeds 11, 12)."""
+    from hairshade import mitsuba as hm
+
+    scene = hs.Scene.from_dict(d)
+    return [
+        hm.render(scene, spp=spp, integrator="path", max_depth=2, seed=seed, passes=1, progress=False)
+        for seed in (11, 12)
+    ]
+
+
 def split_rows(name: str, d: dict, ref: np.ndarray, halves: list[np.ndarray]) -> list[str]:
     """Where the error of the best configuration lies: its single scattering
     (the render without multiple scattering) and its multiple scattering
     (the difference dual makes) each swapped for the truth's (Mitsuba at
     max_depth 2, and the converged truth minus it)."""
-    images = {}
-    for ms in ("none", "dual"):
-        dd = json.loads(json.dumps(d))
-        dd["render"].update(BEST, multiple_scattering=ms)
-        images[ms] = hs.render(hs.Scene.from_dict(dd), progress=False)
+    images = {ms: render_best(d, multiple_scattering=ms) for ms in ("none", "dual")}
     direct = 0.5 * (halves[0] + halves[1])
     ours_ms = images["dual"] - images["none"]
     mean = lambda x: x.reshape(-1, 3).mean(0)  # noqa: E731
@@ -147,13 +163,7 @@ def split_rows(name: str, d: dict, ref: np.ndarray, halves: list[np.ndarray]) ->
 def single_rows(name: str, d: dict, ref: np.ndarray) -> tuple[list[str], list[str]]:
     """Single scattering of scene `name` against path tracing at max_depth 2,
     and (`split_rows`) where the best configuration's error lies."""
-    from hairshade import mitsuba as hm
-
-    scene = hs.Scene.from_dict(d)
-    halves = [
-        hm.render(scene, spp=SINGLE_SPP, integrator="path", max_depth=2, seed=seed, passes=1, progress=False)
-        for seed in (11, 12)
-    ]
+    halves = direct_halves(d)
     direct = 0.5 * (halves[0] + halves[1])
     mean = lambda x: x.reshape(-1, 3).mean(0)  # noqa: E731
     noise = np.abs(mean(halves[0]) / mean(halves[1]) - 1).max() / 2

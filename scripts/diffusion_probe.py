@@ -44,7 +44,7 @@ from scipy.ndimage import map_coordinates
 import hairshade as hs
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from dense_compare import BEST, DENSE  # noqa: E402
+from dense_compare import DENSE, direct_halves, render_best  # noqa: E402
 
 LIGHT_DIRECTIONS = 32  # the environment as the renderer's Fibonacci lattice
 
@@ -99,19 +99,12 @@ def main() -> None:
     ap.add_argument("--grid", type=int, default=80, help="voxels along the hair's longest side")
     ap.add_argument("--vacuum", type=float, default=2.0, help="σ (1/m) below which a voxel is outside the hair")
     args = ap.parse_args()
-    from hairshade import mitsuba as hm
-
     d = json.loads((DENSE / f"{args.scene}.json").read_text())
     ref = hs.read_exr(str(DENSE / f"{args.scene}.exr"))[..., :3].astype(np.float64)
     scene = hs.Scene.from_dict(d)
-    halves = [hm.render(scene, spp=512, integrator="path", max_depth=2, seed=s, passes=1, progress=False)
-              for s in (11, 12)]
+    halves = direct_halves(d)
     truth_ms = ref - 0.5 * (halves[0] + halves[1])
-    images = {}
-    for ms in ("none", "dual"):
-        dd = json.loads(json.dumps(d))
-        dd["render"].update(BEST, multiple_scattering=ms)
-        images[ms] = hs.render(hs.Scene.from_dict(dd), progress=False).astype(np.float64)
+    images = {ms: render_best(d, multiple_scattering=ms).astype(np.float64) for ms in ("none", "dual")}
     ss, dual_ms = images["none"], images["dual"] - images["none"]
 
     t0 = time.perf_counter()

@@ -26,7 +26,7 @@ import numpy as np
 import hairshade as hs
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from dense_compare import BEST, DENSE  # noqa: E402
+from dense_compare import DENSE, SINGLE_SPP, direct_halves, render_best  # noqa: E402
 
 BLOCK = 20
 EPS = 1e-2  # hs.rel_mse's
@@ -41,24 +41,15 @@ def per_pixel(img: np.ndarray, ref: np.ndarray) -> np.ndarray:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="blond_back")
-    ap.add_argument("--spp", type=int, default=512, help="samples per pixel of each half of the direct light")
+    ap.add_argument("--spp", type=int, default=SINGLE_SPP, help="samples per pixel of each half of the direct light")
     ap.add_argument("--out", default=None, help="folder for NAME_error.png (none: not written)")
     args = ap.parse_args()
-    from hairshade import mitsuba as hm
-
     d = json.loads((DENSE / f"{args.scene}.json").read_text())
     ref = hs.read_exr(str(DENSE / f"{args.scene}.exr"))[..., :3].astype(np.float64)
-    images = {}
-    for key, opts in {"none": dict(multiple_scattering="none"), "dual": {},
-                      "no forward": dict(dual_forward_density=0.0)}.items():
-        dd = json.loads(json.dumps(d))
-        dd["render"].update(BEST, **opts)
-        images[key] = hs.render(hs.Scene.from_dict(dd), progress=False).astype(np.float64)
-    halves = [
-        hm.render(hs.Scene.from_dict(d), spp=args.spp, integrator="path", max_depth=2, seed=s, passes=1,
-                  progress=False).astype(np.float64)
-        for s in (11, 12)
-    ]
+    images = {key: render_best(d, **opts).astype(np.float64)
+              for key, opts in {"none": dict(multiple_scattering="none"), "dual": {},
+                                "no forward": dict(dual_forward_density=0.0)}.items()}
+    halves = [h.astype(np.float64) for h in direct_halves(d, args.spp)]
     direct = 0.5 * (halves[0] + halves[1])
     ours, ours_ss = images["dual"], images["none"]
     ours_ms, truth_ms = ours - ours_ss, ref - direct

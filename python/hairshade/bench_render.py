@@ -131,15 +131,18 @@ def equal_error_ratio(raster_ms: float, raster_err: float, mitsuba: list[tuple[f
     return mitsuba[-1][0] / raster_ms, ">="
 
 
+def valid_steps(steps: tuple[str, ...]) -> bool:
+    """Whether ``steps`` are some names of ``STEPS`` (at least one)."""
+    return bool(steps) and all(s in STEPS for s in steps)
+
+
 def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str | None = None,
                             progress_bar: bool = True, steps: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
     """All rows (see the module doc), or those of ``steps`` (names of
     ``STEPS``). ``fast``: small resolutions and spp, fewer strands (for the
     notebook and the tests)."""
-    if steps is not None:
-        unknown = [s for s in steps if s not in STEPS]
-        if unknown or not steps:
-            raise ValueError(f"steps: expected names among {', '.join(STEPS)}, got {list(steps)!r}")
+    if steps is not None and not valid_steps(steps):
+        raise ValueError(f"steps: expected names among {', '.join(STEPS)}, got {list(steps)!r}")
     data = data_dir or REFERENCES
     rows: list[dict[str, Any]] = []
     resolutions = ((160, 90), (320, 180)) if fast else RESOLUTIONS

@@ -80,7 +80,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.bsdf_only and args.render_only:
         raise ValueError("--bsdf-only and --render-only exclude each other")
     steps = tuple(args.render_steps.split(",")) if args.render_steps else None
-    if steps is not None and (not steps or any(st not in bench_render.STEPS for st in steps)):
+    if steps is not None and not bench_render.valid_steps(steps):
         raise ValueError(f"--render-steps: expected comma-separated names among {', '.join(bench_render.STEPS)}, "
                          f"got {args.render_steps!r}")
     renders = args.render or args.render_only or steps is not None

@@ -104,6 +104,14 @@ impl EnvLights {
             .map_or((0.0, 1.0, None), |c| c.at_fiber_behind(p, r, t, d))
     }
 
+    /// The part of the way towards direction `k` from `p` clear of opaque
+    /// geometry ([`FiberCount::at`]; 1 without hair): all the unscattered
+    /// light needs besides [`Self::unscattered_count`].
+    #[inline]
+    pub fn clear(&self, k: usize, p: Vec3) -> f32 {
+        self.counts.get(k).map_or(1.0, |c| c.at(p).1)
+    }
+
     /// The fiber count of the unscattered light of direction `k` (towards
     /// `d`) at `p` of a fiber of radius `r` and tangent `t`
     /// ([`FiberCount::unscattered_at`]; 0 without hair).

@@ -43,8 +43,9 @@ const SLAB_SLICES: usize = 4;
 /// the environment of `blond_env` without multiple scattering against
 /// Mitsuba at max_depth 2, 0.988/0.989/0.992 of its mean read at the point,
 /// 0.999/0.999/0.999 half a voxel ahead (a whole voxel overshoots: 1.01,
-/// measured without the own share left out); the `density` shadow model on the card head (KarisHair on both sides,
-/// direct light), 0.45 -> 0.58 of Mitsuba's mean.
+/// measured without the own share left out); the `density` shadow model on
+/// the card head (KarisHair on both sides, direct light), 0.45 -> 0.58 of
+/// Mitsuba's mean.
 pub const UNSCATTERED_LOOKAHEAD: f32 = 0.5;
 
 /// The fiber cross-section of a scene's hair on a voxel grid.

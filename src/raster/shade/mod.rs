@@ -301,8 +301,7 @@ impl<'a> Shader<'a> {
             for (k, light) in env.lights.iter().enumerate() {
                 for (i, p) in points.iter().enumerate() {
                     let (li, e) = light.incident(*p);
-                    let (_, clear, _) = env.count(k, *p, fibers[i].radius, tangents[i], li);
-                    let unscattered = clear
+                    let unscattered = env.clear(k, *p)
                         * (-env.unscattered_count(k, *p, fibers[i].radius, tangents[i], li)).exp();
                     b.l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
                     (b.irradiance[i], b.shadow[i]) = (e, unscattered);
