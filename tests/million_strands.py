@@ -27,6 +27,6 @@ scene.points = points.astype(np.float32)
 scene.radii = np.full(2 * n, 1e-4, np.float32)
 scene.offsets = np.arange(0, 2 * n + 1, 2, dtype=np.uint32)
 before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-img, st = hs.render(scene, return_stats=True, progress=False)
+img, st = hs.render(scene, quality="fast", return_stats=True, progress=False)
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(f"{peak:.0f} {before:.0f} {st['fragments']} {st['non_finite_pixels']} {int((~np.isfinite(img)).sum())}")

@@ -63,7 +63,8 @@ def test_01_lone_fiber_scatters_its_albedo(model, tilt):
         "camera": {"position": [0, 0, 0.1], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 40, "resolution": [96, 96]},
         "lights": [{"type": "environment", "radiance": [1.0, 1.0, 1.0]}],
         "hair": {"strands": [{"points": np.outer([-0.3, 0, 0.3], t).tolist(), "radius": 0.001}], "material": mat},
-        "render": {"transparency": "coverage", "samples": 64, "environment_directions": 512},
+        "render": {"transparency": {"coverage": {"samples": 64}}, "multiple_scattering": "none",
+                   "environment_directions": 512},
     }
     img = hs.render(hs.Scene.from_dict(d))
     got = img[48, 47:49].mean(0)

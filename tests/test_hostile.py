@@ -379,9 +379,9 @@ def test_07_near_plane_follows_the_hair_not_the_ground():
     radius 1e4 (which used to put the near plane at 2, past the strand):
     the same segments reach the image and the hair pixels are equal."""
     hair = {"strands": [{"points": [[-0.2, 0, 0], [0.2, 0, 0]], "radius": 0.01}]}
-    alone = hs.render(hs.Scene.from_dict(_base(hair=hair)), return_stats=True, progress=False)
+    alone = hs.render(hs.Scene.from_dict(_base(hair=hair)), quality="fast", return_stats=True, progress=False)
     ground = _base(hair=hair, meshes=[{"type": "sphere", "center": [0, -1.0e4 - 1, 0], "radius": 1.0e4}])
-    with_ground = hs.render(hs.Scene.from_dict(ground), return_stats=True, progress=False)
+    with_ground = hs.render(hs.Scene.from_dict(ground), quality="fast", return_stats=True, progress=False)
     assert alone[1]["segments_visible"] == with_ground[1]["segments_visible"] == 1
     hair_px = alone[0].sum(axis=2) > 0
     assert hair_px.sum() > 10
@@ -449,7 +449,8 @@ def test_09_karis_shadow_range_and_to_chiang_eta():
 @pytest.mark.parametrize("change, field, words", [
     (lambda d: d.update(hairshade_scene=True), "hairshade_scene", "expected version 1"),
     (lambda d: d["camera"].update(resolution=[48.5, 32]), "camera.resolution[0]", "expected an integer"),
-    (lambda d: d.update(render={"layers": 4.5}), "render.layers", "integer"),
+    (lambda d: d.update(render={"transparency": {"mlab": {"layers": 4.5}}}), "render.transparency.mlab.layers",
+     "integer"),
     (lambda d: d.update(hair={"material": {"model": "karis", "roughness": "0.5"}}), "hair.material", "roughness"),
     (lambda d: d.update(hair={"material": {"model": "deon", "h_samples": 2.5}}), "hair.material", "h_samples"),
     (lambda d: d.update(hair={"cards": [{"points": [[0, 0, 0], [0, 1, 0]], "width": 0.1,

@@ -92,11 +92,11 @@ def test_05_hair_culling_skips_hidden_hair_and_stays_close_to_the_exact_composit
     exact_culled, st = hs.render(s, transparency="sorted", return_stats=True)
     assert st["culled_behind_hair"] > 0
     assert np.abs(exact_culled - exact).max() < 2e-3 * exact.max()
-    scene_order, st0 = hs.render(s, hair_cull_transmittance=0.0, return_stats=True)
-    culled, st1 = hs.render(s, return_stats=True)
+    scene_order, st0 = hs.render(s, transparency={"mlab": {"cull_transmittance": 0.0}}, return_stats=True)
+    culled, st1 = hs.render(s, transparency="mlab", return_stats=True)
     assert st1["fragments"] < st0["fragments"]
     e0, e1 = hs.rel_mse(scene_order, exact), hs.rel_mse(culled, exact)
     print(f"MLAB vs sorted: scene order {e0:.2e}, front to back with culling {e1:.2e}")
     assert e1 < e0
-    with pytest.raises(ValueError, match="hair_cull_transmittance"):
+    with pytest.raises(ValueError, match="cull_transmittance"):
         hs.render(s, hair_cull_transmittance=1.5)

@@ -53,7 +53,7 @@ import math
 import os
 import tempfile
 import time
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -165,7 +165,7 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
                 d = head(head_strands) if name == "strand_head" else _example(name)
                 s = _scene(d)
                 for w, h in resolutions:
-                    cold = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+                    cold = _best_ms(lambda: render_switched(s, w, h, off=("reuse_shadow_maps",)), repeats)
                     warm = _best_ms(lambda: render(s, w, h, progress=False), repeats)
                     rows.append(_row("frame", name, "cold", w, h, ms=cold))
                     rows.append(_row("frame", name, "warm", w, h, ms=warm))
@@ -189,7 +189,7 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
                 if fast:
                     ref = ref.reshape(h, 2, w, 2, 3).mean(axis=(1, 3))
                 img = render(s, w, h, progress=False)
-                t = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+                t = _best_ms(lambda: render_switched(s, w, h, off=("reuse_shadow_maps",)), repeats)
                 e = rel_mse(img, ref)
                 rows.append(_row("error", name, f"rasterizer ({bsdf})", w, h, ms=t, rel=e))
                 pts = []
@@ -224,7 +224,7 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
             for n in strands:
                 s = _scene(head(n))
                 w, h = (320, 180) if fast else (1280, 720)
-                t = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+                t = _best_ms(lambda: render_switched(s, w, h, off=("reuse_shadow_maps",)), repeats)
                 rows.append(_row("strands", "strand_head", f"{n} strands", w, h, ms=t))
         elif step == "threads":
             s = _scene(head(head_strands))
@@ -232,7 +232,7 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
             for threads in ("1", "all"):
                 _native.set_single_threaded(threads == "1")
                 try:
-                    t = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+                    t = _best_ms(lambda: render_switched(s, w, h, off=("reuse_shadow_maps",)), repeats)
                 finally:
                     _native.set_single_threaded(False)
                 rows.append(_row("threads", "strand_head", "", w, h, threads, ms=t))
@@ -323,7 +323,7 @@ def _dense(fast: bool, repeats: int, data: str) -> list[dict[str, Any]]:
             dd["render"].update(opts)
             s = Scene.from_dict(dd)
             img = render(s, w, h, progress=False)
-            t = _best_ms(lambda: render(s, w, h, reuse_shadow_maps=False, progress=False), repeats)
+            t = _best_ms(lambda: render_switched(s, w, h, off=("reuse_shadow_maps",)), repeats)
             out.append(_row("error", name, f"rasterizer (chiang, {label})", w, h, ms=t, rel=rel_mse(img, ref)))
         pts = []
         try:
@@ -364,7 +364,7 @@ def _lod(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any]]
         for lod in LOD_FRACTIONS:
             img, st = render(s, w, h, shading=shading, lod=lod, progress=False, return_stats=True)
             warm = _best_ms(lambda: render(s, w, h, shading=shading, lod=lod, progress=False), repeats)
-            cold = _best_ms(lambda: render(s, w, h, shading=shading, lod=lod, reuse_shadow_maps=False,
+            cold = _best_ms(lambda: render_switched(s, w, h, shading=shading, lod=lod, off=("reuse_shadow_maps",),
                                            progress=False), repeats)
             label = f"{shading} lod={lod} ({st['lod_fraction']:.3f}, {st['strands_drawn']} strands)"
             e = rel_mse(img, full)
@@ -404,36 +404,39 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
     scattered = copy.deepcopy(head)
     scattered["hair"]["material"]["scatter"] = 0.0
     s_scatter0 = _scene(scattered)
-    cases = [
-        ("skip_unused (MS block at Scatter 0)", s_scatter0, dict(skip_unused=True), dict(skip_unused=False)),
-        ("frustum_culling (close-up, per-vertex shading)", s_close, dict(frustum_culling=True, shading="vertex"),
-         dict(frustum_culling=False, shading="vertex")),
-        ("frustum_culling (close-up, per-pixel shading)", s_close, dict(frustum_culling=True),
-         dict(frustum_culling=False)),
-        ("backface_culling (head as a closed 20k-triangle mesh)", s_meshed, dict(backface_culling=True),
-         dict(backface_culling=False)),
-        ("opaque_culling (hair behind the head)", s, dict(opaque_culling=True), dict(opaque_culling=False)),
-        ("reuse_shadow_maps (camera moved)", s, dict(reuse_shadow_maps=True), dict(reuse_shadow_maps=False)),
-        ("light culling (4 dim far point lights)", s_lit, dict(light_cull_threshold=1e-4),
-         dict(light_cull_threshold=0.0)),
+    # (label, scene, settings, speed-ups off when on, off when off)
+    cases: list[tuple[str, Any, dict[str, Any], tuple[str, ...], tuple[str, ...]]] = [
+        ("skip_unused (MS block at Scatter 0)", s_scatter0, {}, (), ("skip_unused",)),
+        ("frustum_culling (close-up, per-vertex shading)", s_close, dict(shading="vertex"), (), ("frustum_culling",)),
+        ("frustum_culling (close-up, per-pixel shading)", s_close, {}, (), ("frustum_culling",)),
+        ("backface_culling (head as a closed 20k-triangle mesh)", s_meshed, {}, (), ("backface_culling",)),
+        ("opaque_culling (hair behind the head)", s, {}, (), ("opaque_culling",)),
+        ("reuse_shadow_maps (camera moved)", s, {}, (), ("reuse_shadow_maps",)),
+        ("light culling (4 dim far point lights)", s_lit, dict(light_cull_threshold=1e-4), (), ()),
         # approximate, bounded: hair behind nearly opaque hair (cutoff 1e-3)
-        ("hair culling (behind opaque hair, cutoff 1e-3)", s, dict(hair_cull_transmittance=1e-3),
-         dict(hair_cull_transmittance=0.0)),
+        ("hair culling (behind opaque hair, cutoff 1e-3)", s, dict(transparency={"mlab": {"cull_transmittance": 1e-3}}),
+         (), ()),
         # the head's material has Scatter > 0: skip_unused acts on the maps alone
-        ("no map for lights culled everywhere (4 shadowed dim lights)", s_shadowed, dict(skip_unused=True),
-         dict(skip_unused=False)),
+        ("no map for lights culled everywhere (4 shadowed dim lights)", s_shadowed, {}, (), ("skip_unused",)),
     ]
-    for label, scene, on, off in cases:
-        if "reuse_shadow_maps" not in on:
-            on, off = dict(on, reuse_shadow_maps=False), dict(off, reuse_shadow_maps=False)
-        a = render(scene, w, h, progress=False, **on)
-        b = render(scene, w, h, progress=False, **off)
+    cases_off = {
+        "light culling (4 dim far point lights)": dict(light_cull_threshold=0.0),
+        "hair culling (behind opaque hair, cutoff 1e-3)": dict(transparency={"mlab": {"cull_transmittance": 0.0}}),
+    }
+    for label, scene, settings, on_off, off_off in cases:
+        if "reuse_shadow_maps" not in off_off:
+            on_off, off_off = on_off + ("reuse_shadow_maps",), off_off + ("reuse_shadow_maps",)
+        on_settings = settings
+        off_settings = {**settings, **cases_off.get(label, {})}
+        frame_on = lambda: render_switched(scene, w, h, off=on_off, **on_settings)  # noqa: E731
+        frame_off = lambda: render_switched(scene, w, h, off=off_off, **off_settings)  # noqa: E731
+        a, b = frame_on(), frame_off()
         diff = float(np.abs(a - b).max())
         # on and off alternate, so both see the same machine load
         t_on = t_off = math.inf
         for _ in range(repeats):
-            t_on = min(t_on, _best_ms(lambda: render(scene, w, h, progress=False, **on), 1))
-            t_off = min(t_off, _best_ms(lambda: render(scene, w, h, progress=False, **off), 1))
+            t_on = min(t_on, _best_ms(frame_on, 1))
+            t_off = min(t_off, _best_ms(frame_off, 1))
         out.append(_row("skip", "strand_head", f"{label} on", w, h, ms=t_on, rel=diff))
         out.append(_row("skip", "strand_head", f"{label} off", w, h, ms=t_off, rel=diff))
     return out
@@ -548,3 +551,20 @@ def plot(rows: list[dict[str, Any]], path: str, dpi: int = 130) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def render_switched(scene: Any, width: int | None = None, height: int | None = None, *,
+                    off: Sequence[str] = (), progress: bool | None = False, return_stats: bool = False,
+                    **settings: Any) -> Any:
+    """:func:`hairshade.render` with some of the exact speed-ups switched off
+    (``off``: names among :data:`hairshade.options.SPEEDUPS`), to measure
+    what each saves and to test that it never changes the image. They are
+    not render settings: on, the image is the same."""
+    from . import options as _options
+    from .render import _render
+
+    if isinstance(off, str) or not all(isinstance(k, str) and k in _options.SPEEDUPS for k in off):
+        raise ValueError(f"off: expected names among {', '.join(_options.SPEEDUPS)}, got {off!r:.120}")
+    opts = scene.options(**settings)
+    opts.update({k: False for k in off})
+    return _render(scene, width, height, progress, return_stats, opts)

@@ -183,6 +183,48 @@ def _lod(text: str) -> float | str:
         raise argparse.ArgumentTypeError(f"expected 'auto' or a fraction in (0, 1], got {text!r}") from None
 
 
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The render settings the command line sets: --quality, the methods
+    (--transparency, --shadows, --multiple-scattering), --shading, --lod,
+    and any setting by its path (--set transparency.coverage.samples=64)."""
+    import json
+
+    from . import options
+
+    out: dict[str, Any] = {}
+    for name in ("quality", "shading", "lod"):
+        if getattr(args, name) is not None:
+            out[name] = getattr(args, name)
+    methods = {g: getattr(args, g) for g in options.GROUPS if getattr(args, g) is not None}
+    group_opts: dict[str, dict[str, Any]] = {}
+    for item in args.set or []:
+        path, eq, text = item.partition("=")
+        if not eq:
+            raise ValueError(f"--set: expected PATH=VALUE, got {item!r:.80}")
+        try:
+            value = json.loads(text)
+        except ValueError:
+            value = text  # a bare word: a method's or a choice's name
+        parts = path.split(".")
+        if len(parts) == 3 and parts[0] in options.GROUPS:
+            group, method, key = parts
+            if methods.setdefault(group, method) != method:
+                raise ValueError(f"--set {path}: the {group} method is {methods[group]!r}, not {method!r}")
+            group_opts.setdefault(group, {})[key] = value
+        elif len(parts) == 1:
+            out[path] = value
+        else:
+            raise ValueError(f"--set: {path!r} is not a render setting (see docs/options.md)")
+    if args.layers is not None:
+        print("note: --layers is deprecated: use --set transparency.mlab.layers=N", file=sys.stderr)
+        if methods.setdefault("transparency", "mlab") != "mlab":
+            raise ValueError("--layers: applies to --transparency mlab only")
+        group_opts.setdefault("transparency", {})["layers"] = args.layers
+    for group, method in methods.items():
+        out[group] = {method: group_opts[group]} if group in group_opts else method
+    return out
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     import time
 
@@ -196,8 +238,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         return 2
     scene = Scene.load(args.scene, allow_outside=args.allow_outside)
     t = time.perf_counter()
-    img, stats = render(scene, width=args.width, height=args.height, transparency=args.transparency,
-                        layers=args.layers, shading=args.shading, lod=args.lod, return_stats=True)
+    img, stats = render(scene, width=args.width, height=args.height, return_stats=True, **_settings(args))
     dt = time.perf_counter() - t
     # The image itself in the format its name asks for; --png adds a preview
     # next to an EXR (a PNG output is the preview already).
@@ -352,11 +393,20 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--exposure", type=_finite, default=0.0, help="PNG exposure in stops")
     r.add_argument("--allow-outside", action="store_true",
                    help="let the scene read files outside its folder (default: only files inside it)")
-    r.add_argument("--width", type=int)
-    r.add_argument("--height", type=int)
-    r.add_argument("--transparency", choices=("mlab", "sorted", "coverage"))
-    r.add_argument("--layers", type=int)
-    r.add_argument("--shading", choices=("pixel", "vertex"))
+    r.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
+    r.add_argument("--height", type=int, help="image height in pixels (default: the scene's, or the aspect ratio's)")
+    from . import options as _options
+
+    r.add_argument("--quality", choices=_options.QUALITIES,
+                   help=f"the preset the other settings refine (default: the scene's, else {_options.DEFAULT_QUALITY})")
+    for group, (_, methods) in _options.GROUPS.items():
+        r.add_argument(f"--{group.replace('_', '-')}", dest=group, choices=tuple(methods),
+                       help=f"{group.replace('_', ' ')} method (default: the scene's, else the preset's)")
+    r.add_argument("--set", action="append", metavar="PATH=VALUE",
+                   help="any render setting by its path, e.g. transparency.coverage.samples=64 or "
+                        "multiple_scattering.dual.backscatter=two_stream (values are JSON; see docs/options.md)")
+    r.add_argument("--layers", type=int, help="deprecated: --set transparency.mlab.layers=N")
+    r.add_argument("--shading", choices=("pixel", "vertex"), help="strands shaded per fragment or per vertex")
     r.add_argument("--lod", type=_lod, help="fraction of the strands drawn, in (0, 1], or 'auto'")
     r.set_defaults(func=cmd_render)
     c = sub.add_parser("compare", help="relMSE and FLIP of IMAGE against REFERENCE (EXR files)")

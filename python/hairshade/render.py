@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Literal, overload
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -15,26 +15,21 @@ from .scene import Scene
 Image = npt.NDArray[np.float32]  # (H, W, 3) linear radiance
 
 
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from .options import RenderSettings
+
+
 @overload
 def render(
     scene: Scene,
     width: int | None = None,
     height: int | None = None,
-    transparency: str | None = None,
-    layers: int | None = None,
-    samples: int | None = None,
-    shading: str | None = None,
-    frustum_culling: bool | None = None,
-    backface_culling: bool | None = None,
-    opaque_culling: bool | None = None,
-    skip_unused: bool | None = None,
-    reuse_shadow_maps: bool | None = None,
-    light_cull_threshold: float | None = None,
-    multiple_scattering: str | None = None,
-    lod: float | str | None = None,
-    hair_cull_transmittance: float | None = None,
+    *,
     progress: bool | None = None,
     return_stats: Literal[False] = False,
+    **settings: Unpack[RenderSettings],
 ) -> Image: ...
 
 
@@ -43,126 +38,53 @@ def render(
     scene: Scene,
     width: int | None = None,
     height: int | None = None,
-    transparency: str | None = None,
-    layers: int | None = None,
-    samples: int | None = None,
-    shading: str | None = None,
-    frustum_culling: bool | None = None,
-    backface_culling: bool | None = None,
-    opaque_culling: bool | None = None,
-    skip_unused: bool | None = None,
-    reuse_shadow_maps: bool | None = None,
-    light_cull_threshold: float | None = None,
-    multiple_scattering: str | None = None,
-    lod: float | str | None = None,
-    hair_cull_transmittance: float | None = None,
-    progress: bool | None = None,
     *,
+    progress: bool | None = None,
     return_stats: Literal[True],
+    **settings: Unpack[RenderSettings],
 ) -> tuple[Image, dict[str, Any]]: ...
 
 
-@overload
 def render(
     scene: Scene,
     width: int | None = None,
     height: int | None = None,
-    transparency: str | None = None,
-    layers: int | None = None,
-    samples: int | None = None,
-    shading: str | None = None,
-    frustum_culling: bool | None = None,
-    backface_culling: bool | None = None,
-    opaque_culling: bool | None = None,
-    skip_unused: bool | None = None,
-    reuse_shadow_maps: bool | None = None,
-    light_cull_threshold: float | None = None,
-    multiple_scattering: str | None = None,
-    lod: float | str | None = None,
-    hair_cull_transmittance: float | None = None,
+    *,
     progress: bool | None = None,
     return_stats: bool = False,
-) -> Image | tuple[Image, dict[str, Any]]: ...
-
-
-def render(
-    scene: Scene,
-    width: int | None = None,
-    height: int | None = None,
-    transparency: str | None = None,
-    layers: int | None = None,
-    samples: int | None = None,
-    shading: str | None = None,
-    frustum_culling: bool | None = None,
-    backface_culling: bool | None = None,
-    opaque_culling: bool | None = None,
-    skip_unused: bool | None = None,
-    reuse_shadow_maps: bool | None = None,
-    light_cull_threshold: float | None = None,
-    multiple_scattering: str | None = None,
-    lod: float | str | None = None,
-    hair_cull_transmittance: float | None = None,
-    progress: bool | None = None,
-    return_stats: bool = False,
+    **settings: Any,
 ) -> Image | tuple[Image, dict[str, Any]]:
     """Renders ``scene`` -> (H, W, 3) float32 linear radiance.
 
     ``width``/``height`` override the scene's resolution (if only one is
     given the other follows the scene's aspect ratio). Every other keyword
-    overrides the scene's render option of the same name (None: the
-    scene's value, whose default is given here):
+    is a render setting (:class:`hairshade.options.RenderSettings`) and
+    equals writing it in the scene's ``render`` section: ``quality``
+    ("fast", "balanced" (default), "accurate"), ``transparency``,
+    ``shadows``, ``multiple_scattering`` (a method's name, or
+    ``{method: {options}}``), ``shading``, ``lod``,
+    ``density_resolution``, ``environment_directions``,
+    ``light_cull_threshold``, ``background``. For example
+    ``render(scene, quality="accurate")`` or
+    ``render(scene, transparency={"coverage": {"samples": 64}})``.
+    See :mod:`hairshade.options` and ``docs/options.md``.
 
-    - ``transparency`` ("mlab", default; "sorted"; or "coverage": hair as
-      opaque sub-pixel geometry, the nearest fiber per coverage sample, so
-      disjoint thin strands add up to their true area and only visible
-      fragments are shaded), ``layers`` (MLAB layers, 1 to 64, default 4),
-      ``samples`` (coverage samples per pixel, 1 to 64, default 16),
-      ``shading`` ("pixel", default, or "vertex");
-    - ``frustum_culling`` (default on) drops strand segments that reach no
-      pixel before shading them (per-vertex shading then shades only the
-      vertices of the remaining segments; exact: the image is identical);
-    - ``backface_culling`` (on) skips the back faces of OBJ meshes that are
-      closed, consistently oriented outwards, seen from outside and wholly
-      in front of the camera (their back faces are always hidden; other
-      meshes are drawn two-sided);
-    - ``opaque_culling`` (on) skips hair behind a tile's farthest opaque
-      surface (exact; off only to measure it);
-    - ``skip_unused`` (on) compiles out model terms that cannot contribute
-      (KarisHair's MS block at Scatter 0; exact) and builds no shadow map
-      for a light that light culling skips at every hair point (KarisHair;
-      exact: the map is never read);
-    - ``reuse_shadow_maps`` (on) takes the shadow maps of an earlier render
-      in this process when the geometry, the light and the shadow settings
-      are the same (a camera move; exact, the maps are deterministic; at
-      most 4 maps, 32 MiB at the default size, are kept);
-    - ``light_cull_threshold`` (1e-4): with KarisHair, a light whose
-      irradiance times the model's upper bound is below this radiance at a
-      shading point is skipped there (on opaque surfaces: irradiance/pi); a
-      pixel changes by at most threshold x lights (0 turns it off; the
-      stats report the number skipped and the largest skipped bound);
-    - ``multiple_scattering`` ("auto", default: KarisHair's own term for
-      KarisHair, none for the other models; "none"; "karis", KarisHair only;
-      "dual", ChiangHair and KarisHair: dual scattering through the fiber
-      density grid, see the scene format's ``render.multiple_scattering``);
-    - ``lod`` (1, all strands): the fraction of the strands drawn, in
-      (0, 1], each drawn ``1/lod`` times as wide so that the hair's area
-      and opacity are kept (a fixed pseudo-random subset, nested as the
-      fraction grows), or "auto": strands thinner than 2 pixels on screen
-      are drawn as fewer, wider ones (at least 1/8 of them); the stats
-      report ``lod_fraction`` and ``strands_drawn``;
-    - ``hair_cull_transmittance`` (1e-3; 0 turns it off): with MLAB and
-      sorted transparency, a tile's strands are drawn front to back and,
-      per pixel, the hair behind the depth where the transmittance of the
-      hair drawn so far falls below this value is skipped, as is the
-      opaque surface behind it: what is left out is at most this value
-      times its radiance (stats: ``culled_behind_hair``). Drawn front to
-      back, MLAB merges its farthest layers in depth order, which makes it
-      closer to the exact sorted composite than in scene order.
+    A setting that does not apply (to its method, the scene's model or
+    lights) or is out of range raises :class:`hairshade.SceneError` naming
+    it. The older flat keywords (``samples=``, ``multiple_scattering=
+    "auto"``, ...) are translated with a ``DeprecationWarning``.
 
-    Ranges are checked by the renderer; a ``ValueError`` names the option.
     ``progress``: a progress bar (tqdm's when installed; default: where it
     can be seen, a terminal or a notebook). Ctrl-C stops the render
-    (KeyboardInterrupt)."""
+    (KeyboardInterrupt). Non-finite pixels (an overflow) are counted in the
+    stats as ``non_finite_pixels``."""
+    return _render(scene, width, height, progress, return_stats, scene.options(**settings))
+
+
+def _render(scene: Scene, width: int | None, height: int | None, progress: bool | None, return_stats: bool,
+            options: dict[str, Any]) -> Any:
+    """:func:`render` with the renderer's options resolved (the benchmark's
+    speed-up switches are added to these)."""
     cam = dict(scene.camera)
     if width is not None or height is not None:
         for name, v in (("width", width), ("height", height)):
@@ -172,14 +94,6 @@ def render(
         w = int(width) if width is not None else max(1, round(int(height) * w0 / h0))
         h = int(height) if height is not None else max(1, round(int(width) * h0 / w0))
         cam["width"], cam["height"] = w, h
-    options = dict(scene.render)
-    overrides = dict(
-        transparency=transparency, layers=layers, samples=samples, shading=shading, frustum_culling=frustum_culling,
-        backface_culling=backface_culling, opaque_culling=opaque_culling, skip_unused=skip_unused,
-        reuse_shadow_maps=reuse_shadow_maps, light_cull_threshold=light_cull_threshold,
-        multiple_scattering=multiple_scattering, lod=lod, hair_cull_transmittance=hair_cull_transmittance,
-    )
-    options.update({k: v for k, v in overrides.items() if v is not None})
     with Bar(0, "render", unit="tile", enabled=progress) as bar:
         flat, stats = _native.render(_native_scene(scene, cam), options, bar.update_to if progress is not False else None)
     img = flat.reshape(cam["height"], cam["width"], 3)

@@ -134,7 +134,7 @@ from typing import Any, NoReturn
 import numpy as np
 import numpy.typing as npt
 
-from . import _native
+from . import _native, options
 from .chiang import ChiangHair
 from .karis import KarisHair
 from .lighting import sh_coefficients
@@ -149,8 +149,7 @@ MAX_TEXT_BYTES = 256 << 20
 MAX_IMAGE_BYTES = 1 << 30
 
 
-class SceneError(ValueError):
-    """A malformed scene: the message names the field and the problem."""
+from ._errors import SceneError  # noqa: E402  (defined apart so that options.py can raise it)
 
 
 @dataclass
@@ -184,6 +183,24 @@ class Scene:
     @property
     def strand_count(self) -> int:
         return len(self.offsets) - 1
+
+    @property
+    def model(self) -> str:
+        """The hair model's name in the scene format: 'karis', 'chiang' or 'deon'."""
+        return str(self.material["model"])
+
+    def options(self, **overrides: Any) -> dict[str, Any]:
+        """The renderer's options for this scene's ``render`` settings with
+        ``overrides`` set (as :func:`hairshade.render`'s keywords), every
+        value checked: a :class:`SceneError` names a setting that does not
+        apply or is out of range (see :mod:`hairshade.options`)."""
+        settings = options.settings_of(overrides, self.render)
+        flat = options.resolve(settings, self.model, self.environment_sh is not None)
+        try:
+            return _native.render_options(flat)
+        except ValueError as e:
+            key, _, msg = str(e).partition(": ")
+            raise SceneError(f"render.{options.path_of(key, settings)}: {msg}") from None
 
     @classmethod
     def load(cls, path: str | os.PathLike, allow_outside: bool = False) -> "Scene":
@@ -536,13 +553,16 @@ def _parse(d: Any, base_dir: str, source: str,
 
     r = c.obj(d.get("render", {}), "render")
     try:
-        render = _native.render_options(r)
-    except ValueError as e:
-        key, _, msg = str(e).partition(": ")
-        c.fail(f"render.{key}", msg)
+        render = options.translate_flat(r)
+    except SceneError as e:
+        raise SceneError(f"{c.source}: {e}") from None
     scene = Scene(camera, lights, env, points, radii, offsets, spheres, mat, render, source)
     scene.cards = cards
     scene.obj_meshes = obj_meshes
+    try:
+        scene.options()  # every setting checked at load: applies here, in range
+    except SceneError as e:
+        raise SceneError(f"{c.source}: {e}") from None
     return scene
 
 

@@ -73,6 +73,30 @@ pub fn from_angles<T: Real>(sin_theta: T, cos_theta: T, phi: T) -> Vec3<T> {
     [cos_theta * cos_phi, sin_theta, cos_theta * sin_phi]
 }
 
+/// The angles a far-field fiber model depends on, for tangent `t`, view
+/// `v` and light `l` (unit vectors): (sin θ, cos θ) of the view and of the
+/// light (θ from the normal plane, cos θ ≥ 0), and the azimuth between
+/// their projections on the normal plane, in [0, π].
+#[derive(Debug, Clone, Copy)]
+pub struct FiberAngles {
+    pub view: (f32, f32),
+    pub light: (f32, f32),
+    pub phi: f32,
+}
+
+impl FiberAngles {
+    #[inline]
+    pub fn new(t: glam::Vec3, v: glam::Vec3, l: glam::Vec3) -> Self {
+        let (sv, sl) = (t.dot(v).clamp(-1.0, 1.0), t.dot(l).clamp(-1.0, 1.0));
+        let (vp, lp) = (v - t * sv, l - t * sl);
+        Self {
+            view: (sv, (1.0 - sv * sv).max(0.0).sqrt()),
+            light: (sl, (1.0 - sl * sl).max(0.0).sqrt()),
+            phi: vp.cross(lp).length().atan2(vp.dot(lp)),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -30,6 +30,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(models::chiang_azimuthal_scale, m)?,
         wrap_pyfunction!(render::render, m)?,
         wrap_pyfunction!(render::render_options, m)?,
+        wrap_pyfunction!(render::render_option_ranges, m)?,
         wrap_pyfunction!(io::write_exr, m)?,
         wrap_pyfunction!(io::read_exr, m)?,
         wrap_pyfunction!(io::write_png, m)?,
@@ -40,6 +41,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(special::log_i0, m)?,
         wrap_pyfunction!(special::num_threads, m)?,
         wrap_pyfunction!(special::set_single_threaded, m)?,
+        wrap_pyfunction!(special::simd_level, m)?,
     ] {
         m.add_function(f)?;
     }

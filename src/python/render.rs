@@ -7,9 +7,7 @@
 use super::convert::{run_polling, to_numpy};
 use super::scene_args::{build_scene, SceneArgs};
 use crate::raster::lod::Lod;
-use crate::raster::scene::{
-    Backscatter, HairShading, MultipleScattering, RenderOptions, Transparency,
-};
+use crate::raster::scene::{Backscatter, MultipleScattering, RenderOptions, Transparency};
 use crate::raster::shadow::ShadowModel;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyValueError};
 use pyo3::prelude::*;
@@ -35,7 +33,8 @@ impl<'py> OptionReader<'_, 'py> {
 
     /// A real number (not a bool, not a string), finite also as the f32
     /// the renderer uses, in `[lo, hi]`.
-    fn num(&mut self, key: &'static str, default: f64, lo: f64, hi: f64) -> PyResult<f64> {
+    fn num(&mut self, key: &'static str, default: f64) -> PyResult<f64> {
+        let (lo, hi) = range(key);
         let Some(v) = self.get(key)? else {
             return Ok(default);
         };
@@ -51,8 +50,9 @@ impl<'py> OptionReader<'_, 'py> {
     }
 
     /// An integer in `[lo, hi]` (a float with an integral value is accepted).
-    fn int(&mut self, key: &'static str, default: i64, lo: i64, hi: i64) -> PyResult<i64> {
-        let x = self.num(key, default as f64, lo as f64, hi as f64)?;
+    fn int(&mut self, key: &'static str, default: i64) -> PyResult<i64> {
+        let (lo, hi) = range(key);
+        let x = self.num(key, default as f64)?;
         if x.fract() != 0.0 {
             return Err(err(
                 key,
@@ -177,6 +177,54 @@ fn repr(v: &Bound<'_, PyAny>) -> String {
         .unwrap_or_else(|_| "?".into())
 }
 
+/// The inclusive range of each numeric render option: the one table
+/// [`read_options`] checks against and `render_option_ranges` reports.
+fn range(key: &str) -> (f64, f64) {
+    let int = |(lo, hi): (usize, usize)| (lo as f64, hi as f64);
+    match key {
+        "layers" => int(RenderOptions::LAYERS),
+        "samples" => int(crate::raster::samples::SAMPLES),
+        "shadow_map_size" => {
+            let (lo, hi) = RenderOptions::SHADOW_MAP_SIZE;
+            (lo as f64, hi as f64)
+        }
+        "pcf_radius" => {
+            let (lo, hi) = RenderOptions::PCF_RADIUS;
+            (lo as f64, hi as f64)
+        }
+        "density_resolution" => int(RenderOptions::DENSITY_RESOLUTION),
+        "environment_directions" => int(crate::raster::env_light::DIRECTIONS_RANGE),
+        "dual_forward_density" | "dual_back_density" | "hair_cull_transmittance" => (0.0, 1.0),
+        "lod" => (0.0, 1.0),
+        // shadow_density, light_cull_threshold
+        _ => (0.0, f64::MAX),
+    }
+}
+
+/// The numeric render options' ranges: name -> (lowest, highest), both
+/// inclusive (`lod` excludes 0; `f64::MAX` stands for no bound).
+#[pyfunction]
+pub fn render_option_ranges(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    for key in [
+        "layers",
+        "samples",
+        "shadow_map_size",
+        "pcf_radius",
+        "shadow_density",
+        "density_resolution",
+        "environment_directions",
+        "dual_forward_density",
+        "dual_back_density",
+        "hair_cull_transmittance",
+        "light_cull_threshold",
+        "lod",
+    ] {
+        d.set_item(key, range(key))?;
+    }
+    Ok(d)
+}
+
 /// The render options a dict describes (defaults for missing keys), every
 /// value checked against its type and range, and the MLAB layer count
 /// (kept also when the transparency is `sorted`).
@@ -186,14 +234,8 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         d,
         known: Vec::new(),
     };
-    let (l0, l1) = RenderOptions::LAYERS;
-    let (s0, s1) = RenderOptions::SHADOW_MAP_SIZE;
-    let (p0, p1) = RenderOptions::PCF_RADIUS;
-    let (d0, d1) = RenderOptions::DENSITY_RESOLUTION;
-    let (e0, e1) = crate::raster::env_light::DIRECTIONS_RANGE;
     let transparency = r.choice("transparency", "mlab", &["mlab", "sorted", "coverage"])?;
-    let (c0, c1) = crate::raster::samples::SAMPLES;
-    let samples = r.int("samples", 16, c0 as i64, c1 as i64)? as usize;
+    let samples = r.int("samples", 16)? as usize;
     let multiple_scattering = match r.choice(
         "multiple_scattering",
         "auto",
@@ -204,19 +246,14 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         "dual" => Some(MultipleScattering::Dual),
         _ => None,
     };
-    let layers = r.int("layers", 4, l0 as i64, l1 as i64)? as usize;
+    let layers = r.int("layers", 4)? as usize;
     let opts = RenderOptions {
         transparency: match transparency {
             "sorted" => Transparency::Sorted,
             "coverage" => Transparency::Coverage(samples),
             _ => Transparency::Mlab(layers),
         },
-        shadow_map_size: r.int(
-            "shadow_map_size",
-            def.shadow_map_size as i64,
-            s0 as i64,
-            s1 as i64,
-        )? as u32,
+        shadow_map_size: r.int("shadow_map_size", def.shadow_map_size as i64)? as u32,
         shadow_model: match r.choice(
             "shadow_model",
             "exponential",
@@ -227,8 +264,8 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
             "traced" => ShadowModel::Traced,
             _ => ShadowModel::Exponential,
         },
-        shadow_density: r.num("shadow_density", def.shadow_density as f64, 0.0, f64::MAX)? as f32,
-        pcf_radius: r.int("pcf_radius", def.pcf_radius as i64, p0 as i64, p1 as i64)? as i32,
+        shadow_density: r.num("shadow_density", def.shadow_density as f64)? as f32,
+        pcf_radius: r.int("pcf_radius", def.pcf_radius as i64)? as i32,
         background: r.rgb("background", def.background.to_array())?.into(),
         vertex_shading: r.choice("shading", "pixel", &["pixel", "vertex"])? == "vertex",
         frustum_culling: r.flag("frustum_culling", def.frustum_culling)?,
@@ -236,45 +273,26 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         opaque_culling: r.flag("opaque_culling", def.opaque_culling)?,
         skip_unused: r.flag("skip_unused", def.skip_unused)?,
         reuse_shadow_maps: r.flag("reuse_shadow_maps", def.reuse_shadow_maps)?,
-        light_cull_threshold: r.num(
-            "light_cull_threshold",
-            def.light_cull_threshold as f64,
-            0.0,
-            f64::MAX,
-        )? as f32,
-        density_resolution: r.int(
-            "density_resolution",
-            def.density_resolution as i64,
-            d0 as i64,
-            d1 as i64,
-        )? as usize,
-        multiple_scattering,
-        dual_forward_density: r.num(
-            "dual_forward_density",
-            def.dual_forward_density as f64,
-            0.0,
-            1.0,
-        )? as f32,
-        dual_back_density: r.num("dual_back_density", def.dual_back_density as f64, 0.0, 1.0)?
+        light_cull_threshold: r.num("light_cull_threshold", def.light_cull_threshold as f64)?
             as f32,
+        density_resolution: r.int("density_resolution", def.density_resolution as i64)? as usize,
+        multiple_scattering,
+        dual_forward_density: r.num("dual_forward_density", def.dual_forward_density as f64)?
+            as f32,
+        dual_back_density: r.num("dual_back_density", def.dual_back_density as f64)? as f32,
         dual_backscatter: match r.choice("dual_backscatter", "local", &["local", "two_stream"])? {
             "two_stream" => Backscatter::TwoStream,
             _ => Backscatter::Local,
         },
         sphere_bounce: r.flag("sphere_bounce", def.sphere_bounce)?,
         near_field: r.flag("near_field", def.near_field)?,
-        environment_directions: r.int(
-            "environment_directions",
-            def.environment_directions as i64,
-            e0 as i64,
-            e1 as i64,
-        )? as usize,
+        environment_directions: r
+            .int("environment_directions", def.environment_directions as i64)?
+            as usize,
         lod: r.lod("lod")?,
         hair_cull_transmittance: r.num(
             "hair_cull_transmittance",
             def.hair_cull_transmittance as f64,
-            0.0,
-            1.0,
         )? as f32,
     };
     r.finish()?;
@@ -371,23 +389,8 @@ pub fn render<'py>(
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
     let scene = build_scene(scene)?;
     let (opts, _) = read_options(options)?;
-    let ms = crate::raster::shade::multiple_scattering(&scene.hair, &opts);
-    match (&scene.hair, ms) {
-        (HairShading::ChiangFar(_) | HairShading::DEon(_), MultipleScattering::Karis) => {
-            return Err(err(
-                "multiple_scattering",
-                "'karis' is KarisHair's own term; ChiangHair takes 'dual' or 'none', DEonHair 'none'",
-            ))
-        }
-        (HairShading::DEon(_), MultipleScattering::Dual) => {
-            return Err(err(
-                "multiple_scattering",
-                "'dual' is not available for DEonHair yet (use 'none')",
-            ))
-        }
-        _ => {}
-    }
-    let memory = crate::raster::memory::estimate(&scene, &opts, ms);
+    crate::raster::methods::Methods::check(&scene, &opts).map_err(|e| err(e.option, e.message))?;
+    let memory = crate::raster::memory::estimate(&scene, &opts);
     if let Some(available) = crate::raster::memory::available_bytes() {
         if memory.total() > available {
             let gib = |b: u64| b as f64 / (1u64 << 30) as f64;

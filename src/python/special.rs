@@ -122,3 +122,9 @@ pub fn num_threads() -> usize {
 pub fn set_single_threaded(on: bool) {
     crate::threads::set_single_threaded(on)
 }
+
+/// The vector level the f32 kernels run at: "avx512", "avx2" or "portable".
+#[pyfunction]
+pub fn simd_level() -> &'static str {
+    crate::simd::Level::detect().name()
+}

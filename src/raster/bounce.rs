@@ -117,7 +117,7 @@ impl SphereBounce {
                     return Vec3::ZERO;
                 }
                 let t = count.map_or(Vec3::ONE, |c| {
-                    (-(Vec3::ONE - a_f) * c.at(q).0).exp() * c.at(lifted).1
+                    (-(Vec3::ONE - a_f) * c.at(q).n).exp() * c.at(lifted).clear
                 });
                 e * cos * t
             };
@@ -187,7 +187,7 @@ impl SphereBounce {
             let sin = s.radius / d;
             // the cone's share of the half-space towards the sphere
             let share = 1.0 - (1.0 - sin * sin).max(0.0).sqrt();
-            let (n, _) = s.count.at_fiber(p, r, t, -m);
+            let n = s.count.at_fiber(p, r, t, -m).n;
             out += s.lookup(m)
                 * (-(Vec3::ONE - a_f) * n).exp()
                 * half_space_response(far, dual, t, v, -m)
@@ -202,7 +202,7 @@ impl SphereBounce {
 /// unit radiance arriving from that half-space ([`FarField::half_space`]:
 /// the azimuths within π/2 of `w`'s, at every θ).
 fn half_space_response(far: FarField, dual: &DualTable, t: Vec3, v: Vec3, w: Vec3) -> Vec3 {
-    let g = super::shade::FiberAngles::new(t, v, w);
+    let g = crate::fiber::frame::FiberAngles::new(t, v, w);
     Vec3::from(far.half_space(dual, g.view, g.phi))
 }
 
@@ -271,7 +271,7 @@ mod tests {
                             let phi =
                                 std::f32::consts::PI * ((j as f32 + 0.5) / k_phi as f32 - 0.5);
                             let om = t * u + (a * phi.cos() + b * phi.sin()) * c;
-                            let g = crate::raster::shade::FiberAngles::new(t, v, om);
+                            let g = crate::fiber::frame::FiberAngles::new(t, v, om);
                             let l = table.lobes_from_angles(g.view, g.light, g.phi);
                             let f = Vec3::from(l[0])
                                 + Vec3::from(l[1])

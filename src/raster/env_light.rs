@@ -23,7 +23,7 @@
 //! its directions are fixed, so the error is a deterministic pattern, not
 //! noise. Measured against path tracing on `tests/data/dense/blond_env`.
 
-use super::density::{DensityGrid, FiberCount};
+use super::density::{DensityGrid, FiberCount, LightPath};
 use super::scene::{Environment, HairShading, Light, MultipleScattering, Scene};
 use crate::lighting::sh9_eval;
 use glam::Vec3;
@@ -94,14 +94,14 @@ impl EnvLights {
         Self { lights, counts }
     }
 
-    /// `(n, clear, behind)` towards light `k` (direction `d`) at `p` of a
-    /// fiber of radius `r` and tangent `t`, its own share left out (no
-    /// hair: `(0, 1, None)`; `behind` when the counts hold it).
+    /// The way towards direction `k` (towards `d`) from `p` of a fiber of
+    /// radius `r` and tangent `t`, its own share left out (no hair:
+    /// [`LightPath::OPEN`]; `behind` when the counts hold it).
     #[inline]
-    pub fn count(&self, k: usize, p: Vec3, r: f32, t: Vec3, d: Vec3) -> (f32, f32, Option<f32>) {
+    pub fn path(&self, k: usize, p: Vec3, r: f32, t: Vec3, d: Vec3) -> LightPath {
         self.counts
             .get(k)
-            .map_or((0.0, 1.0, None), |c| c.at_fiber_behind(p, r, t, d))
+            .map_or(LightPath::OPEN, |c| c.at_fiber_behind(p, r, t, d))
     }
 
     /// The part of the way towards direction `k` from `p` clear of opaque
@@ -109,7 +109,7 @@ impl EnvLights {
     /// light needs besides [`Self::unscattered_count`].
     #[inline]
     pub fn clear(&self, k: usize, p: Vec3) -> f32 {
-        self.counts.get(k).map_or(1.0, |c| c.at(p).1)
+        self.counts.get(k).map_or(1.0, |c| c.at(p).clear)
     }
 
     /// The fiber count of the unscattered light of direction `k` (towards

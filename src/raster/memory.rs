@@ -3,7 +3,7 @@
 //! options alone. A render whose estimate exceeds the memory available is
 //! refused with the estimate instead of failing part-way (or being killed).
 
-use super::scene::{Light, MultipleScattering, RenderOptions, Scene};
+use super::scene::{Light, RenderOptions, Scene};
 use super::setup::{Segment, WorldSegment};
 use super::shadow::{ShadowModel, LAYERS, SLABS};
 
@@ -51,7 +51,8 @@ fn density_voxels(scene: &Scene, resolution: usize) -> u64 {
 
 /// The estimate for rendering `scene` with `opts` and multiple scattering
 /// `ms` (dual scattering needs the density grid).
-pub fn estimate(scene: &Scene, opts: &RenderOptions, ms: MultipleScattering) -> MemoryEstimate {
+pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
+    let m = super::methods::Methods::new(scene, opts);
     let c = &scene.camera;
     let pixels = c.width as u64 * c.height as u64;
     let vertices = scene.strands.points.len() as u64;
@@ -80,22 +81,15 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions, ms: MultipleScattering) -> 
             shadowed * shadow_map_bytes(opts.shadow_map_size.max(16), opts.shadow_model),
         ),
     ];
-    let density = opts.shadow_model == ShadowModel::Density || ms == MultipleScattering::Dual;
     // Per voxel and light: [n, clear], and the count away from the light
     // for the two-stream back scattering.
-    let per_light = if ms == MultipleScattering::Dual
-        && opts.dual_backscatter == super::scene::Backscatter::TwoStream
-    {
-        12
-    } else {
-        8
-    };
-    if density && shadowed > 0 {
+    let per_light = if m.counts_behind { 12 } else { 8 };
+    if m.fiber_counts && shadowed > 0 {
         // Moments (7 floats) summed from 8 per-chunk grids, and the counts.
         let voxels = density_voxels(scene, opts.density_resolution);
         items.push(("density grid", voxels * (28 * 9 + per_light * shadowed)));
     }
-    if scene.environment.is_some() && super::env_light::as_lights(&scene.hair, ms) {
+    if m.environment_as_lights {
         // The environment as lights: a grid at a quarter resolution, the
         // counts per voxel for each direction.
         let voxels = density_voxels(scene, (opts.density_resolution / 4).max(16));
@@ -104,7 +98,7 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions, ms: MultipleScattering) -> 
             voxels * (28 * 9 + per_light * opts.environment_directions as u64),
         ));
     }
-    if opts.shadow_model == ShadowModel::Traced {
+    if m.traced {
         // Capsules and their cell lists.
         items.push(("traced segment grid", segments * 64));
     }

@@ -39,6 +39,7 @@ pub mod density;
 pub mod env_light;
 pub mod lod;
 pub mod memory;
+pub mod methods;
 pub mod oit;
 pub mod samples;
 pub mod scene;
@@ -157,19 +158,19 @@ pub fn render_with_progress(
 
     // 3. Segments, frustum culling, per-vertex shading.
     let t1 = std::time::Instant::now();
-    let counts = fiber_counts(scene, opts);
-    let traced = (opts.shadow_model == shadow::ShadowModel::Traced)
+    let methods = methods::Methods::new(scene, opts);
+    let counts = fiber_counts(scene, opts, &methods);
+    let traced = methods
+        .traced
         .then(|| traced::SegmentGrid::new(&world))
         .flatten();
-    let as_lights =
-        env_light::as_lights(&scene.hair, shade::multiple_scattering(&scene.hair, opts));
     let env_lights = match &scene.environment {
-        Some(env) if as_lights => Some(env_light::EnvLights::new(
+        Some(env) if methods.environment_as_lights => Some(env_light::EnvLights::new(
             scene,
             env,
             opts.environment_directions,
             opts.density_resolution,
-            counts_behind(scene, opts),
+            methods.counts_behind,
         )),
         _ => None,
     };
@@ -306,10 +307,13 @@ fn shadow_maps(
 
 /// Per light, the fiber count towards it (the `density` shadow model: for
 /// every light that casts shadows).
-fn fiber_counts(scene: &Scene, opts: &RenderOptions) -> Vec<Option<density::FiberCount>> {
-    let dual = shade::multiple_scattering(&scene.hair, opts) == scene::MultipleScattering::Dual;
+fn fiber_counts(
+    scene: &Scene,
+    opts: &RenderOptions,
+    methods: &methods::Methods,
+) -> Vec<Option<density::FiberCount>> {
     let wanted = |l: &scene::Light| {
-        (opts.shadow_model == shadow::ShadowModel::Density || dual)
+        methods.fiber_counts
             && matches!(
                 l,
                 scene::Light::Directional { shadows: true, .. }
@@ -325,15 +329,8 @@ fn fiber_counts(scene: &Scene, opts: &RenderOptions) -> Vec<Option<density::Fibe
     scene
         .lights
         .iter()
-        .map(|l| wanted(l).then(|| grid.fiber_count_with(l, counts_behind(scene, opts))))
+        .map(|l| wanted(l).then(|| grid.fiber_count_with(l, methods.counts_behind)))
         .collect()
-}
-
-/// Whether the fiber counts hold the count away from each light too: dual
-/// scattering with the two-stream back scattering (nothing else reads it).
-fn counts_behind(scene: &Scene, opts: &RenderOptions) -> bool {
-    opts.dual_backscatter == scene::Backscatter::TwoStream
-        && shade::multiple_scattering(&scene.hair, opts) == scene::MultipleScattering::Dual
 }
 
 /// Per-vertex shading of segments clipped at the near plane: a clipped end

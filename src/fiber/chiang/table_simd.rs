@@ -372,7 +372,7 @@ mod tests {
 
     /// 3. World-space directions (view, light, tangent: the renderer's
     ///    batches) against the scalar look-up from the angles the renderer
-    ///    computes per point (`raster::shade::FiberAngles`): the same bound
+    ///    computes per point (`fiber::frame::FiberAngles`): the same bound
     ///    as test 1.
     #[test]
     fn t03_world_space_matches_angles() {
@@ -388,7 +388,7 @@ mod tests {
         let g = |a: &[f32], i: usize| glam::Vec3::from_slice(&a[3 * i..]);
         let want: Vec<[f32; 3]> = (0..n)
             .map(|i| {
-                let a = crate::raster::shade::FiberAngles::new(g(&tan, i), g(&v, i), g(&l, i));
+                let a = crate::fiber::frame::FiberAngles::new(g(&tan, i), g(&v, i), g(&l, i));
                 let lobes = t.lobes_from_angles(a.view, a.light, a.phi);
                 std::array::from_fn(|c| lobes.iter().map(|x| x[c]).sum())
             })

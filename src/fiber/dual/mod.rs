@@ -107,6 +107,29 @@ mod tests;
 
 pub use shade::{two_stream, FarField};
 
+/// The way from a point inside hair to a light, in fibers: what dual
+/// scattering needs of it besides the unscattered fraction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightPath {
+    /// Expected fibers crossed towards the light (the fiber's own share
+    /// left out).
+    pub n: f32,
+    /// Fraction of the way free of opaque geometry.
+    pub clear: f32,
+    /// Fibers beyond the point, away from the light, where they were
+    /// counted (two-stream back scattering); `None`: Zinke's local `A_b`.
+    pub behind: Option<f32>,
+}
+
+impl LightPath {
+    /// No hair and nothing opaque on the way.
+    pub const OPEN: LightPath = LightPath {
+        n: 0.0,
+        clear: 1.0,
+        behind: None,
+    };
+}
+
 /// Nodes over `u_l = sin θl ∈ [−1, 1]`.
 pub const INCIDENCE_NODES: usize = 65;
 /// Gauss–Legendre nodes over `u_o` and midpoint nodes over φ ∈ [0, π] in

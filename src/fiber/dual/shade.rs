@@ -2,8 +2,9 @@
 //! fiber inside hair (see the module docs of [`super`]).
 
 use super::bake::{canonical, karis_parts};
-use super::{gauss, DualTable, DualTerms};
+use super::{gauss, DualTable, DualTerms, LightPath};
 use crate::fiber::chiang::ChiangFarTable;
+use crate::fiber::frame::FiberAngles;
 use crate::fiber::karis::KarisHair;
 use crate::fiber::lobes::gaussian;
 
@@ -79,33 +80,29 @@ impl FarField<'_> {
 
 impl DualTable {
     /// The effective far field of a fiber inside hair (RGB; the
-    /// radiance towards the viewer is `E ·` this): `view` and `light` are
-    /// (sin θ, cos θ) of the two directions, `phi` ∈ [0, π] the azimuth
-    /// between them, `p0` the unscattered fraction of the light, `n` the
-    /// fibers crossed towards the light, `clear` the fraction of that path
-    /// free of opaque geometry; `d_f` the forward density factor (`d_b` is
-    /// the table's). With `behind`, the fibers beyond the point away from
+    /// radiance towards the viewer is `E ·` this) for the pair of
+    /// directions `g`: `p0` the unscattered fraction of the light, `path`
+    /// the fibers crossed towards it and the part of the way free of
+    /// opaque geometry; `d_f` the forward density factor (`d_b` is the
+    /// table's). With `path.behind`, the fibers beyond the point away from
     /// the light, the back scattering is the two-stream slab's instead of
     /// Zinke's local `A_b` (see [`two_stream`]).
-    #[allow(clippy::too_many_arguments)]
     pub fn shade(
         &self,
         far: FarField,
-        view: (f32, f32),
-        light: (f32, f32),
-        phi: f32,
+        g: &FiberAngles,
         p0: f32,
-        n: f32,
-        clear: f32,
+        path: LightPath,
         d_f: f32,
-        behind: Option<f32>,
     ) -> [f32; 3] {
         use std::f32::consts::{FRAC_1_PI, FRAC_PI_2};
-        let single = far.single(view, light, phi);
+        let (view, light, phi) = (g.view, g.light, g.phi);
+        let (n, clear) = (path.n, path.clear);
         let t = self.terms(light.0);
-        if let Some(m) = behind {
-            return self.shade_two_stream(far, &t, &single, view, light, phi, p0, n, m, clear, d_f);
+        if path.behind.is_some() {
+            return self.shade_two_stream(far, &t, g, p0, path, d_f);
         }
+        let single = far.single(view, light, phi);
         let x = view.0 + light.0;
         let back_side = if phi.abs() < FRAC_PI_2 { 1.0 } else { 0.0 };
         let mut out = [0.0f32; 3];
@@ -140,22 +137,19 @@ impl DualTable {
     /// `σ_f²` as Zinke's) and the backward stream `I⁻`, which reaches the
     /// fiber from the far side (azimuth `π − |φ|`) after one backward
     /// scattering and the forward ones around it (spread `β_b² + σ_f²`).
-    #[allow(clippy::too_many_arguments)]
     fn shade_two_stream(
         &self,
         far: FarField,
         t: &DualTerms,
-        single: &[f32; 3],
-        view: (f32, f32),
-        light: (f32, f32),
-        phi: f32,
+        g: &FiberAngles,
         p0: f32,
-        n: f32,
-        m: f32,
-        clear: f32,
+        path: LightPath,
         d_f: f32,
     ) -> [f32; 3] {
-        let (n, m) = (n.max(0.0), m.max(0.0));
+        let (view, light, phi) = (g.view, g.light, g.phi);
+        let single = far.single(view, light, phi);
+        let clear = path.clear;
+        let (n, m) = (path.n.max(0.0), path.behind.unwrap_or(0.0).max(0.0));
         let mean = |x: &[f32; 3]| (x[0] + x[1] + x[2]) / 3.0;
         // The spreads are taken at the view's incidence, not the light's:
         // for one view they are then the same for every light direction and

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::fiber::chiang::ChiangFarTable;
+use crate::fiber::frame::FiberAngles;
 
 // 01: A_1 and A_3 equal the path sums they stand for (series to 1e-12).
 #[test]
@@ -143,28 +144,14 @@ fn t06_two_stream_white_furnace() {
                     let p0 = (-n).exp();
                     // the light from the mirror direction arrives
                     // with the counts swapped (its I⁻ is this one's pair)
-                    let a = dual.shade(
-                        FarField::Chiang(&table),
-                        view,
-                        light,
-                        phi,
-                        p0,
+                    let g = FiberAngles { view, light, phi };
+                    let path = |n, m| LightPath {
                         n,
-                        1.0,
-                        1.0,
-                        Some(mm),
-                    );
-                    let b = dual.shade(
-                        FarField::Chiang(&table),
-                        view,
-                        light,
-                        phi,
-                        (-mm).exp(),
-                        mm,
-                        1.0,
-                        1.0,
-                        Some(n),
-                    );
+                        clear: 1.0,
+                        behind: Some(m),
+                    };
+                    let a = dual.shade(FarField::Chiang(&table), &g, p0, path(n, mm), 1.0);
+                    let b = dual.shade(FarField::Chiang(&table), &g, (-mm).exp(), path(mm, n), 1.0);
                     sum += 0.5 * (a[1] + b[1]) as f64 * wu * 2.0 * PI / k_phi as f64;
                 }
             }
@@ -291,7 +278,8 @@ fn t08_karis_shade_without_hair_is_single_scattering() {
         );
         let far = FarField::Karis(&model);
         let got = far.single(view, light, phi);
-        let shaded = dual.shade(far, view, light, phi, 1.0, 0.0, 1.0, 0.7, None);
+        let g = FiberAngles { view, light, phi };
+        let shaded = dual.shade(far, &g, 1.0, LightPath::OPEN, 0.7);
         for c in 0..3 {
             assert!(
                 (got[c] - want[c]).abs() <= 1e-5 * want[c].max(1e-3),

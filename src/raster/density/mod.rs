@@ -27,6 +27,7 @@
 //! interpolated between them).
 
 use super::scene::{Light, Scene, Strands};
+pub use crate::fiber::dual::LightPath;
 use crate::threads::pool;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -529,24 +530,33 @@ impl FiberCount {
     /// width over the voxel's). Without this a lone fiber of radius 0.5
     /// voxel received 0.40 of a constant environment.
     #[inline]
-    pub fn at_fiber(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> (f32, f32) {
-        let (n, clear) = self.at(p);
-        let own = r * t.cross(d).length() / self.voxel;
-        ((n - own).max(0.0), clear)
+    pub fn at_fiber(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> LightPath {
+        let path = self.at(p);
+        LightPath {
+            n: (path.n - self.own_share(r, t, d)).max(0.0),
+            ..path
+        }
     }
 
-    /// [`Self::at_fiber`] for the light's unscattered part: read
-    /// [`UNSCATTERED_LOOKAHEAD`] voxels towards the light `d`.
+    /// The fiber's own share of the count: its projected width over the
+    /// voxel's (see [`Self::at_fiber`]).
+    #[inline]
+    fn own_share(&self, r: f32, t: Vec3, d: Vec3) -> f32 {
+        r * t.cross(d).length() / self.voxel
+    }
+
+    /// [`Self::at_fiber`]'s fiber count for the light's unscattered part:
+    /// read [`UNSCATTERED_LOOKAHEAD`] voxels towards the light `d`.
     #[inline]
     pub fn unscattered_at(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> f32 {
         self.at_fiber(p + d * (UNSCATTERED_LOOKAHEAD * self.voxel), r, t, d)
-            .0
+            .n
     }
 
-    /// [`Self::at_fiber`] and the count away from the light there (its
+    /// [`Self::at_fiber`] with the count away from the light there (its
     /// own share left out too) when this count holds it, in one pass.
     #[inline]
-    pub fn at_fiber_behind(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> (f32, f32, Option<f32>) {
+    pub fn at_fiber_behind(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> LightPath {
         let has = !self.behind.is_empty();
         let (mut n, mut clear, mut m) = (0.0, 0.0, 0.0);
         let inside = self.trilinear(p, |v, w| {
@@ -556,12 +566,12 @@ impl FiberCount {
                 m += w * self.behind[v];
             }
         });
-        let own = r * t.cross(d).length() / self.voxel;
-        (
-            (n - own).max(0.0),
-            clear + (1.0 - inside),
-            has.then(|| (m - own).max(0.0)),
-        )
+        let own = self.own_share(r, t, d);
+        LightPath {
+            n: (n - own).max(0.0),
+            clear: clear + (1.0 - inside),
+            behind: has.then(|| (m - own).max(0.0)),
+        }
     }
 
     /// Calls `f(voxel, weight)` for the trilinear weights of `p` between
@@ -601,17 +611,22 @@ impl FiberCount {
         inside
     }
 
-    /// `(n, clear)` at `p`: the expected fibers crossed on the way to the
-    /// light and the fraction of the path clear of opaque geometry
-    /// (trilinear between voxel centres; outside the grid (0, 1)).
+    /// At `p`: the expected fibers crossed on the way to the light and the
+    /// fraction of the path clear of opaque geometry (trilinear between
+    /// voxel centres; outside the grid [`LightPath::OPEN`]); `behind` is
+    /// not read here.
     #[inline]
-    pub fn at(&self, p: Vec3) -> (f32, f32) {
+    pub fn at(&self, p: Vec3) -> LightPath {
         let (mut n, mut clear) = (0.0, 0.0);
         let inside = self.trilinear(p, |v, w| {
             n += w * self.n[v][0];
             clear += w * self.n[v][1];
         });
-        (n, clear + (1.0 - inside))
+        LightPath {
+            n,
+            clear: clear + (1.0 - inside),
+            behind: None,
+        }
     }
 }
 

@@ -45,7 +45,7 @@ fn count(grid: &DensityGrid, d: Vec3, p: Vec3) -> f32 {
         intensity: Vec3::ONE,
         shadows: true,
     };
-    grid.fiber_count(&light).at(p).0
+    grid.fiber_count(&light).at(p).n
 }
 
 // 01: the fiber count towards a directional light inside a box of
@@ -106,14 +106,15 @@ fn t03_count_behind() {
     let tol = sigma * grid.voxel;
     let behind = |grid: &DensityGrid, light: &Light, p: Vec3| {
         let c = grid.fiber_count_with(light, true);
-        let (n, clear, m) = c.at_fiber_behind(p, 0.0, Vec3::X, Vec3::Z);
-        assert_eq!((n, clear), c.at_fiber(p, 0.0, Vec3::X, Vec3::Z));
+        let path = c.at_fiber_behind(p, 0.0, Vec3::X, Vec3::Z);
+        let alone = c.at_fiber(p, 0.0, Vec3::X, Vec3::Z);
+        assert_eq!((path.n, path.clear), (alone.n, alone.clear));
         assert!(grid
             .fiber_count(light)
             .at_fiber_behind(p, 0.0, Vec3::X, Vec3::Z)
-            .2
+            .behind
             .is_none());
-        m.unwrap()
+        path.behind.unwrap()
     };
     let dir = Light::Directional {
         direction: Vec3::Z,

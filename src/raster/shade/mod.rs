@@ -17,12 +17,14 @@ use super::scene::{HairShading, MultipleScattering, RenderOptions, Scene};
 use super::shadow::{ShadowMap, NO_STRAND};
 use super::traced::SegmentGrid;
 use crate::fiber::dual::{DualTable, FarField};
+pub use crate::fiber::frame::FiberAngles;
 use crate::fiber::karis::Transmittance;
 use crate::lighting::sh9_eval;
 use crate::threads::pool;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Arc;
+use visibility::{Incident, Source};
 
 /// One shadow map per light (None: the light casts no shadow, or its map
 /// was skipped).
@@ -138,7 +140,8 @@ impl<'a> Shader<'a> {
         opts: &RenderOptions,
     ) -> Self {
         let (skip_unused, cull_threshold) = (opts.skip_unused, opts.light_cull_threshold);
-        let ms = multiple_scattering(&scene.hair, opts);
+        let m = super::methods::Methods::new(scene, opts);
+        let ms = m.multiple_scattering;
         let hair = match &scene.hair {
             HairShading::Karis(k)
                 if k.components().ms
@@ -150,9 +153,9 @@ impl<'a> Shader<'a> {
             }
             other => other.clone(),
         };
-        let dual_ms = ms == MultipleScattering::Dual;
+        let dual_ms = m.dual;
         let env_model = match (&scene.environment, &hair) {
-            (Some(_), HairShading::Karis(k)) if !super::env_light::as_lights(&hair, ms) => {
+            (Some(_), HairShading::Karis(k)) if !m.environment_as_lights => {
                 Some(k.environment_variant())
             }
             _ => None,
@@ -169,10 +172,6 @@ impl<'a> Shader<'a> {
             _ => None,
         }
         .map(|t| (t, opts.dual_forward_density));
-        let near = opts.near_field
-            && matches!(opts.transparency, super::scene::Transparency::Coverage(_))
-            && !opts.vertex_shading
-            && matches!(hair, HairShading::ChiangFar(_));
         Self {
             scene,
             hair,
@@ -180,8 +179,8 @@ impl<'a> Shader<'a> {
             shadows,
             counts,
             dual,
-            count_shadows: opts.shadow_model == super::shadow::ShadowModel::Density,
-            near,
+            count_shadows: m.count_shadows,
+            near: m.near_field,
             traced,
             env_lights,
             bounce: None,
@@ -280,35 +279,20 @@ impl<'a> Shader<'a> {
         };
         out.fill(Vec3::ZERO);
         let mut tally = CullTally::default();
-        for (index, (light, sm)) in self.scene.lights.iter().zip(self.shadows).enumerate() {
-            // per point: direction, irradiance, visibility (0 where culled)
+        for source in self.sources() {
+            // per point: direction, irradiance, unscattered fraction (0 where culled)
             for (i, p) in points.iter().enumerate() {
-                let (li, e) = light.incident(*p);
-                b.l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
-                (b.irradiance[i], b.shadow[i]) = if self.culls(e, &mut tally) {
-                    (Vec3::ZERO, 0.0)
-                } else {
-                    let (ti, vi) = (tangents[i], Vec3::from_slice(&b.v[3 * i..]));
-                    (e, self.hair_visibility(index, sm, *p, ti, vi, fibers[i]))
-                };
+                let v = Vec3::from_slice(&b.v[3 * i..]);
+                let inc = self.incident(source, *p, tangents[i], v, fibers[i], &mut tally);
+                let (l, e, vis) = inc.map_or((Vec3::ZERO, Vec3::ZERO, 0.0), |x| {
+                    (x.dir, x.irradiance, x.unscattered)
+                });
+                b.l[3 * i..3 * i + 3].copy_from_slice(&l.to_array());
+                (b.irradiance[i], b.shadow[i]) = (e, vis);
             }
             self.add_light(&mut b, out);
         }
         self.flush(tally);
-        if let Some(env) = &self.env_lights {
-            // The environment's directions (ChiangHair), each as a light:
-            // what the fibers on the way let through (see `env_light`).
-            for (k, light) in env.lights.iter().enumerate() {
-                for (i, p) in points.iter().enumerate() {
-                    let (li, e) = light.incident(*p);
-                    let unscattered = env.clear(k, *p)
-                        * (-env.unscattered_count(k, *p, fibers[i].radius, tangents[i], li)).exp();
-                    b.l[3 * i..3 * i + 3].copy_from_slice(&li.to_array());
-                    (b.irradiance[i], b.shadow[i]) = (e, unscattered);
-                }
-                self.add_light(&mut b, out);
-            }
-        }
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             // L = the fake normal n = normalize(V − T(T·V)); π · SH(n)⁺ · f
             use crate::fiber::karis::{simd::eval_range, KarisInputs};
@@ -418,27 +402,15 @@ impl<'a> Shader<'a> {
         )
     }
 
-    /// What a fiber with tangent `t` scatters towards `v` from irradiance
-    /// `e` arriving from direction `l`: the model's far field times the
-    /// unscattered fraction `vis`, or under dual scattering its effective
-    /// far field with `count = (n, clear)`, the fibers crossed towards the
-    /// light and the part of the way free of opaque geometry.
-    #[allow(clippy::too_many_arguments)]
-    fn fiber_response(
-        &self,
-        l: Vec3,
-        v: Vec3,
-        t: Vec3,
-        e: Vec3,
-        vis: f32,
-        count: (f32, f32, Option<f32>),
-    ) -> Vec3 {
+    /// What a fiber with tangent `t` scatters towards `v` of the light
+    /// `inc`: the model's far field times the irradiance and the
+    /// unscattered fraction, or under dual scattering its effective far
+    /// field for the way to the light.
+    fn fiber_response(&self, v: Vec3, t: Vec3, inc: &Incident) -> Vec3 {
+        let (l, e, vis) = (inc.dir, inc.irradiance, inc.unscattered);
         if let (Some((dual, d_f)), Some(far)) = (&self.dual, self.far_field()) {
             let g = FiberAngles::new(t, v, l);
-            let (n, clear, behind) = count;
-            return Vec3::from(
-                dual.shade(far, g.view, g.light, g.phi, vis, n, clear, *d_f, behind),
-            ) * e;
+            return Vec3::from(dual.shade(far, &g, vis, inc.path, *d_f)) * e;
         }
         if vis <= 0.0 {
             return Vec3::ZERO;
@@ -451,17 +423,7 @@ impl<'a> Shader<'a> {
                 };
                 Vec3::from(k.eval(&l.to_array(), &v.to_array(), &t.to_array(), &tr))
             }
-            HairShading::ChiangFar(c) => {
-                // Mitsuba's convention: wi towards the viewer (its offset h is
-                // the one averaged across the fiber's visible width), wo towards
-                // the light.
-                let g = FiberAngles::new(t, v, l);
-                let lobes = c.lobes_from_angles(g.view, g.light, g.phi);
-                Vec3::from(lobes[0])
-                    + Vec3::from(lobes[1])
-                    + Vec3::from(lobes[2])
-                    + Vec3::from(lobes[3])
-            }
+            HairShading::ChiangFar(c) => chiang_far(c, t, v, l),
             HairShading::DEon(d) => Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array())),
         };
         f * e * vis
@@ -498,40 +460,20 @@ impl<'a> Shader<'a> {
             return out;
         }
         let mut tally = CullTally::default();
-        for (li, (light, sm)) in self.scene.lights.iter().zip(self.shadows).enumerate() {
-            let (l, e) = light.incident(p);
-            if self.culls(e, &mut tally) {
+        for source in self.sources() {
+            let Some(inc) = self.incident(source, p, t, v, fiber, &mut tally) else {
                 continue;
-            }
-            let vis = self.hair_visibility(li, sm, p, t, v, fiber);
-            let count = match (&self.dual, &self.counts[li]) {
-                (Some(_), Some(c)) => c.at_fiber_behind(p, fiber.radius, t, l),
-                _ => (0.0, 1.0, None),
             };
-            out += self.fiber_response(l, v, t, e, vis, count);
-            if let (Some(list), HairShading::ChiangFar(c)) =
-                (unscattered.as_deref_mut(), &self.hair)
+            out += self.fiber_response(v, t, &inc);
+            if let (Some(list), HairShading::ChiangFar(c), Source::Light(_)) =
+                (unscattered.as_deref_mut(), &self.hair, source)
             {
-                if vis > 0.0 {
-                    let g = FiberAngles::new(t, v, l);
-                    let lobes = c.lobes_from_angles(g.view, g.light, g.phi);
-                    let f = Vec3::from(lobes[0])
-                        + Vec3::from(lobes[1])
-                        + Vec3::from(lobes[2])
-                        + Vec3::from(lobes[3]);
-                    out -= f * e * vis;
-                    list.push([l, e * vis]);
+                // the near field shades this part per coverage sample
+                if inc.unscattered > 0.0 {
+                    let f = chiang_far(c, t, v, inc.dir);
+                    out -= f * inc.irradiance * inc.unscattered;
+                    list.push([inc.dir, inc.irradiance * inc.unscattered]);
                 }
-            }
-        }
-        if let Some(env) = &self.env_lights {
-            // The environment's directions: what the fibers on the way let
-            // through (see `env_light`).
-            for (k, light) in env.lights.iter().enumerate() {
-                let (l, e) = light.incident(p);
-                let (n, clear, behind) = env.count(k, p, fiber.radius, t, l);
-                let unscattered = clear * (-env.unscattered_count(k, p, fiber.radius, t, l)).exp();
-                out += self.fiber_response(l, v, t, e, unscattered, (n, clear, behind));
             }
         }
         self.flush(tally);
@@ -547,6 +489,16 @@ impl<'a> Shader<'a> {
     }
 }
 
+/// ChiangHair's far field (tabulated) for tangent `t`, view `v` and light
+/// `l`, in Mitsuba's convention: wi towards the viewer (its offset h is the
+/// one averaged across the fiber's visible width), wo towards the light.
+#[inline]
+fn chiang_far(c: &crate::fiber::chiang::ChiangFarTable, t: Vec3, v: Vec3, l: Vec3) -> Vec3 {
+    let g = FiberAngles::new(t, v, l);
+    let lobes = c.lobes_from_angles(g.view, g.light, g.phi);
+    Vec3::from(lobes[0]) + Vec3::from(lobes[1]) + Vec3::from(lobes[2]) + Vec3::from(lobes[3])
+}
+
 struct EnvOne<'a> {
     v: Vec3,
     t: Vec3,
@@ -560,40 +512,6 @@ impl crate::fiber::karis::LobeVisitor<f32> for EnvOne<'_> {
         m: &crate::fiber::karis::KarisHair<f32>,
     ) -> [f32; 3] {
         m.env_lobes_static::<R, TT, TRT, MS>(&self.v.to_array(), &self.t.to_array(), self.sh)
-    }
-}
-
-/// The multiple scattering a render uses: the option, or the model's
-/// default (KarisHair: its own term; ChiangHair and DEonHair: none, until
-/// dual scattering meets its accuracy goals: see `docs/dense_hair.md`).
-pub fn multiple_scattering(hair: &HairShading, opts: &RenderOptions) -> MultipleScattering {
-    opts.multiple_scattering.unwrap_or(match hair {
-        HairShading::Karis(_) => MultipleScattering::Karis,
-        HairShading::ChiangFar(_) | HairShading::DEon(_) => MultipleScattering::None,
-    })
-}
-
-/// The angles a far-field fiber model depends on, for tangent `t`, view
-/// `v` and light `l` (unit vectors): (sin θ, cos θ) of the view and of the
-/// light (θ from the normal plane, cos θ ≥ 0), and the azimuth between
-/// their projections on the normal plane, in [0, π].
-#[derive(Debug, Clone, Copy)]
-pub struct FiberAngles {
-    pub view: (f32, f32),
-    pub light: (f32, f32),
-    pub phi: f32,
-}
-
-impl FiberAngles {
-    #[inline]
-    pub fn new(t: Vec3, v: Vec3, l: Vec3) -> Self {
-        let (sv, sl) = (t.dot(v).clamp(-1.0, 1.0), t.dot(l).clamp(-1.0, 1.0));
-        let (vp, lp) = (v - t * sv, l - t * sl);
-        Self {
-            view: (sv, (1.0 - sv * sv).max(0.0).sqrt()),
-            light: (sl, (1.0 - sl * sl).max(0.0).sqrt()),
-            phi: vp.cross(lp).length().atan2(vp.dot(lp)),
-        }
     }
 }
 

@@ -3,11 +3,101 @@
 //! (the unscattered and, under dual scattering, the forward-scattered part).
 
 use super::{Fiber, Shader};
+use crate::raster::density::LightPath;
 use crate::raster::shadow::ShadowMap;
 use glam::Vec3;
 use std::sync::Arc;
 
+/// A source of light at hair points: a scene light, or one direction of
+/// an environment shaded as lights ([`crate::raster::env_light`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Source {
+    Light(usize),
+    Environment(usize),
+}
+
+/// What of one source reaches a hair point: the one producer that every
+/// shading path (per point, in batches, per coverage sample) sums over.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Incident {
+    /// Unit direction towards the light.
+    pub dir: Vec3,
+    /// Irradiance on a surface facing the light, before anything blocks it.
+    pub irradiance: Vec3,
+    /// The fraction that arrives unscattered (shadow maps, traced rays,
+    /// fiber counts).
+    pub unscattered: f32,
+    /// The way to the light in fibers, under dual scattering
+    /// ([`LightPath::OPEN`] otherwise).
+    pub path: LightPath,
+}
+
 impl Shader<'_> {
+    /// The sources in the order they are summed: the scene's lights, then
+    /// the environment's directions.
+    pub(super) fn sources(&self) -> impl Iterator<Item = Source> {
+        let lights = self.scene.lights.len();
+        let env = self.env_lights.as_ref().map_or(0, |e| e.lights.len());
+        (0..lights)
+            .map(Source::Light)
+            .chain((0..env).map(Source::Environment))
+    }
+
+    /// What of `source` reaches hair point `p` on `fiber` with tangent `t`,
+    /// seen from `v`; `None` where light culling skips the light (counted
+    /// in `tally`).
+    #[inline]
+    pub(super) fn incident(
+        &self,
+        source: Source,
+        p: Vec3,
+        t: Vec3,
+        v: Vec3,
+        fiber: Fiber,
+        tally: &mut super::CullTally,
+    ) -> Option<Incident> {
+        let dual = self.dual.is_some();
+        match source {
+            Source::Light(li) => {
+                let light = &self.scene.lights[li];
+                let (dir, irradiance) = light.incident(p);
+                if self.culls(irradiance, tally) {
+                    return None;
+                }
+                const NO_MAP: &Option<Arc<ShadowMap>> = &None;
+                let sm = self.shadows.get(li).unwrap_or(NO_MAP);
+                let unscattered = self.hair_visibility(li, sm, p, t, v, fiber);
+                let path = match (dual, &self.counts[li]) {
+                    (true, Some(c)) => c.at_fiber_behind(p, fiber.radius, t, dir),
+                    _ => LightPath::OPEN,
+                };
+                Some(Incident {
+                    dir,
+                    irradiance,
+                    unscattered,
+                    path,
+                })
+            }
+            Source::Environment(k) => {
+                let env = self.env_lights.as_ref()?;
+                let (dir, irradiance) = env.lights[k].incident(p);
+                let unscattered =
+                    env.clear(k, p) * (-env.unscattered_count(k, p, fiber.radius, t, dir)).exp();
+                let path = if dual {
+                    env.path(k, p, fiber.radius, t, dir)
+                } else {
+                    LightPath::OPEN
+                };
+                Some(Incident {
+                    dir,
+                    irradiance,
+                    unscattered,
+                    path,
+                })
+            }
+        }
+    }
+
     /// Visibility of light `li` (shadow map `sm`) at hair point `p` on
     /// `fiber` with tangent `t`, seen from `v`: the shadow map's at the
     /// fiber's surface point facing the viewer (not its own strand's
@@ -67,7 +157,7 @@ impl Shader<'_> {
             let unscattered = if blocked { Vec3::ZERO } else { Vec3::ONE };
             return match (&self.dual, count) {
                 (Some((dual, _)), Some(count)) => {
-                    let (n, clear) = count.at(p);
+                    let LightPath { n, clear, .. } = count.at(p);
                     let a_f = Vec3::from(dual.terms(0.0).a_f);
                     let scattered =
                         ((-(Vec3::ONE - a_f) * n).exp() - Vec3::splat((-n).exp())).max(Vec3::ZERO);
@@ -82,7 +172,7 @@ impl Shader<'_> {
         if !self.count_shadows {
             return Vec3::ONE;
         }
-        let (n, _) = count.at(p);
+        let n = count.at(p).n;
         match &self.dual {
             Some((dual, _)) => {
                 let a_f = Vec3::from(dual.terms(0.0).a_f);

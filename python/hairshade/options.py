@@ -1,0 +1,537 @@
+"""Render settings: one definition, read by the scene file, :func:`hairshade.render`,
+the CLI, the docs and the tests.
+
+A scene's ``render`` section (and the keywords of :func:`hairshade.render`)::
+
+    "render": {
+      "quality": "balanced",                          # fast | balanced | accurate
+      "transparency": {"coverage": {"samples": 64}},  # or just "coverage"
+      "shadows": {"opacity": {"map_size": 2048}},     # or just "traced"
+      "multiple_scattering": {"dual": {"backscatter": "two_stream"}},
+      "background": [0, 0, 0]
+    }
+
+``quality`` picks a preset: a bundle of methods chosen by measurement
+(``docs/quality.md``: error against path-traced truth and frame time per
+preset and head). Everything else refines it. A method with options is
+written ``{"method": {options}}``, so that an option can only be written
+under the method it belongs to; the method alone is its name. A group the
+preset also sets keeps the preset's options when the method is the same, and
+drops them when it differs. An option that does not apply (to its method,
+to the scene's hair model, or to a scene without an environment) is an
+error naming it, at load. The renderer checks each value's range (the
+ranges are the renderer's; ``docs/options.md`` lists them).
+
+The TypedDicts below *are* the definition: each key's type, its renderer
+name and its documentation are read from them (``Annotated``), so adding an
+option is one line here plus the code that uses it.
+
+Older scene files spelt the settings flat (``"samples": 64``,
+``"shadow_model": "traced"``, ``"dual_forward_density": 0.7``): those keys
+are translated with a ``DeprecationWarning`` that names the new spelling.
+The exact speed-ups (culling, reuse of shadow maps) never change an image;
+they are not settings but switches of the benchmark
+(:func:`hairshade.bench_render.render_switched`).
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from dataclasses import dataclass
+from typing import Any, Callable, Dict, List, Literal, Mapping, Sequence, Tuple, Union, get_args, get_origin
+
+if sys.version_info >= (3, 9):
+    from typing import Annotated, get_type_hints
+if sys.version_info >= (3, 11):
+    from typing import TypedDict
+else:  # typing_extensions is not a dependency; TypedDict with total= works from 3.9
+    from typing import TypedDict
+
+from ._errors import SceneError
+
+
+# -- annotations -------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Native:
+    """The renderer's name of an option (``hairshade._native.render_options``)."""
+
+    name: str
+
+
+@dataclass(frozen=True)
+class Doc:
+    text: str
+
+
+@dataclass(frozen=True)
+class Applies:
+    """An option's condition beyond its method: ``when(ctx)`` true, else
+    ``why`` (the error's reason)."""
+
+    when: Callable[["Context"], bool]
+    why: str
+
+
+@dataclass(frozen=True)
+class Context:
+    """What decides whether an option applies: the hair model ('karis',
+    'chiang', 'deon'), whether the scene has an environment light, and the
+    methods chosen."""
+
+    model: str
+    environment: bool
+    transparency: str
+    shadows: str
+    multiple_scattering: str
+    shading: str
+
+    @property
+    def environment_as_lights(self) -> bool:
+        # the renderer's env_light::as_lights
+        return self.environment and (self.model != "karis" or self.multiple_scattering == "dual")
+
+
+_CHIANG = Applies(lambda c: c.model == "chiang", "it applies to ChiangHair only")
+_GRID = Applies(
+    lambda c: c.shadows == "density" or c.multiple_scattering == "dual" or c.environment_as_lights,
+    "no fiber density grid is built: it applies with shadows 'density', multiple_scattering 'dual' "
+    "or an environment shaded as lights (ChiangHair, DEonHair, or dual scattering)")
+_ENV = Applies(lambda c: c.environment_as_lights,
+               "the environment is not shaded as lights here: it applies to a scene with an environment light "
+               "and ChiangHair, DEonHair, or dual scattering")
+_CULL = Applies(lambda c: c.model == "karis" and c.multiple_scattering != "dual",
+                "light culling applies to KarisHair without dual scattering")
+
+
+# -- the definition ------------------------------------------------------------------
+
+Quality = Literal["fast", "balanced", "accurate"]
+QUALITIES: Tuple[str, ...] = get_args(Quality)
+
+
+class MlabOptions(TypedDict, total=False):
+    layers: Annotated[int, Native("layers"), Doc("MLAB layers per pixel")]
+    cull_transmittance: Annotated[float, Native("hair_cull_transmittance"), Doc(
+        "a pixel's hair behind the depth where its transmittance falls below this is skipped "
+        "(at most this times its radiance is lost; 0: off)")]
+
+
+class SortedOptions(TypedDict, total=False):
+    cull_transmittance: Annotated[float, Native("hair_cull_transmittance"), Doc(
+        "as under mlab: hair behind this transmittance is skipped (0: off)")]
+
+
+class CoverageOptions(TypedDict, total=False):
+    samples: Annotated[int, Native("samples"), Doc("coverage samples per pixel")]
+    near_field: Annotated[bool, Native("near_field"), _CHIANG, Doc(
+        "ChiangHair's single scattering by the near field at each sample's offset across its fiber, "
+        "as a path tracer's hit (off: the far field once per fragment)")]
+
+
+class ExponentialShadows(TypedDict, total=False):
+    map_size: Annotated[int, Native("shadow_map_size"), Doc("shadow-map texels per side")]
+    pcf_radius: Annotated[int, Native("pcf_radius"), Doc("PCF kernel radius in texels (0: one tap)")]
+    density: Annotated[float, Native("shadow_density"), Doc(
+        "Karis 2016's optical density: exp(-density x depth behind the first hair)")]
+
+
+class MapShadows(TypedDict, total=False):
+    map_size: Annotated[int, Native("shadow_map_size"), Doc("shadow-map texels per side (the map holds "
+                                                            "opaque geometry, and hair for 'opacity')")]
+    pcf_radius: Annotated[int, Native("pcf_radius"), Doc("PCF kernel radius in texels (0: one tap)")]
+
+
+class DualOptions(TypedDict, total=False):
+    forward_density: Annotated[float, Native("dual_forward_density"), Doc("Zinke's d_f")]
+    back_density: Annotated[float, Native("dual_back_density"), Doc("Zinke's d_b")]
+    backscatter: Annotated[Literal["local", "two_stream"], Native("dual_backscatter"), Doc(
+        "Zinke's local A_b, or the energy-conserving two-stream slab along each light's line")]
+    sphere_bounce: Annotated[bool, Native("sphere_bounce"), Doc(
+        "light the opaque spheres (a head) reflect back into the hair")]
+
+
+class NoOptions(TypedDict, total=False):
+    """A method without options."""
+
+
+class _Mlab(TypedDict):
+    mlab: MlabOptions
+
+
+class _Sorted(TypedDict):
+    sorted: SortedOptions
+
+
+class _Coverage(TypedDict):
+    coverage: CoverageOptions
+
+
+class _Exponential(TypedDict):
+    exponential: ExponentialShadows
+
+
+class _Opacity(TypedDict):
+    opacity: MapShadows
+
+
+class _Density(TypedDict):
+    density: MapShadows
+
+
+class _Traced(TypedDict):
+    traced: MapShadows
+
+
+class _NoMS(TypedDict):
+    none: NoOptions
+
+
+class _KarisMS(TypedDict):
+    karis: NoOptions
+
+
+class _Dual(TypedDict):
+    dual: DualOptions
+
+
+Transparency = Union[Literal["mlab", "sorted", "coverage"], _Mlab, _Sorted, _Coverage]
+Shadows = Union[Literal["exponential", "opacity", "density", "traced"], _Exponential, _Opacity, _Density, _Traced]
+MultipleScattering = Union[Literal["none", "karis", "dual"], _NoMS, _KarisMS, _Dual]
+
+
+class RenderSettings(TypedDict, total=False):
+    """A scene's ``render`` section; also the keywords of :func:`hairshade.render`."""
+
+    quality: Annotated[Quality, Doc("the preset everything else refines (default 'balanced')")]
+    transparency: Annotated[Transparency, Doc(
+        "mlab: Multi-Layer Alpha Blending of anti-aliased footprints; sorted: every fragment in depth "
+        "order; coverage: hair as opaque sub-pixel geometry, the nearest fiber per sample")]
+    shadows: Annotated[Shadows, Doc(
+        "exponential: Karis 2016's falloff behind the first hair; opacity: a deep opacity map; density: "
+        "exp(-n) for the fibers counted in a density grid; traced: rays through the strands (exact)")]
+    multiple_scattering: Annotated[MultipleScattering, Doc(
+        "none; karis: KarisHair's own term; dual: dual scattering through the fiber density grid "
+        "(ChiangHair, KarisHair)")]
+    shading: Annotated[Literal["pixel", "vertex"], Native("shading"), Doc(
+        "strands shaded per fragment, or per vertex and interpolated")]
+    lod: Annotated[Union[float, Literal["auto"]], Native("lod"), Doc(
+        "the fraction of the strands drawn, each wider by its inverse, or 'auto' (from their width on screen)")]
+    density_resolution: Annotated[int, Native("density_resolution"), _GRID, Doc(
+        "voxels along the longest side of the hair's bounds in the fiber density grid")]
+    environment_directions: Annotated[int, Native("environment_directions"), _ENV, Doc(
+        "directions of the environment's spherical quadrature, each dimmed by the fibers on its way")]
+    light_cull_threshold: Annotated[float, Native("light_cull_threshold"), _CULL, Doc(
+        "radiance below which a light's bounded contribution is skipped (0: off)")]
+    background: Annotated[Sequence[float], Native("background"), Doc(
+        "RGB radiance behind everything when the scene has no environment light")]
+
+
+#: Each choice group: its renderer name, and per method the TypedDict of its options.
+GROUPS: Dict[str, Tuple[str, Dict[str, type]]] = {
+    "transparency": ("transparency", {"mlab": MlabOptions, "sorted": SortedOptions, "coverage": CoverageOptions}),
+    "shadows": ("shadow_model", {"exponential": ExponentialShadows, "opacity": MapShadows,
+                                 "density": MapShadows, "traced": MapShadows}),
+    "multiple_scattering": ("multiple_scattering", {"none": NoOptions, "karis": NoOptions, "dual": DualOptions}),
+}
+
+#: Methods that need a model: (model allowed?, why).
+_METHOD_MODELS: Dict[Tuple[str, str], Tuple[Callable[[str], bool], str]] = {
+    ("multiple_scattering", "karis"): (lambda m: m == "karis",
+                                       "'karis' is KarisHair's own term; ChiangHair takes 'dual' or 'none'"),
+    ("multiple_scattering", "dual"): (lambda m: m != "deon", "'dual' is not available for DEonHair (use 'none')"),
+}
+
+
+@dataclass(frozen=True)
+class Field:
+    """One option: where it is written, its renderer name, type, docs and condition."""
+
+    path: str          # e.g. "transparency.coverage.samples" or "lod"
+    native: str
+    type: Any
+    doc: str
+    applies: Applies | None
+
+
+def _fields_of(td: type, prefix: str) -> List[Field]:
+    out = []
+    for key, hint in get_type_hints(td, include_extras=True).items():
+        if get_origin(hint) is not Annotated:
+            continue
+        base, *meta = get_args(hint)
+        native = next((m.name for m in meta if isinstance(m, Native)), None)
+        if native is None:
+            continue
+        doc = next((m.text for m in meta if isinstance(m, Doc)), "")
+        applies = next((m for m in meta if isinstance(m, Applies)), None)
+        out.append(Field(f"{prefix}{key}", native, base, doc, applies))
+    return out
+
+
+def fields() -> List[Field]:
+    """Every option, read from the TypedDicts (the docs and tests use this)."""
+    out = _fields_of(RenderSettings, "")
+    for group, (_, methods) in GROUPS.items():
+        for method, td in methods.items():
+            out += _fields_of(td, f"{group}.{method}.")
+    return out
+
+
+def _group_doc(group: str) -> str:
+    hint = get_type_hints(RenderSettings, include_extras=True)[group]
+    return next(m.text for m in get_args(hint)[1:] if isinstance(m, Doc))
+
+
+# -- presets -------------------------------------------------------------------------
+
+#: The presets, chosen by measurement (docs/quality.md, `scripts/quality_table.py`).
+#: Per model where the model decides: DEonHair takes no dual scattering,
+#: KarisHair's own multiple-scattering term stands in for it where dual's
+#: cost is not wanted.
+PRESETS: Dict[str, Dict[str, Any]] = {
+    # interactive: MLAB, deep opacity maps, the model's own multiple scattering
+    "fast": {
+        "transparency": {"mlab": {"layers": 4}},
+        "shadows": {"opacity": {}},
+        "multiple_scattering": {"karis": "karis", "chiang": "none", "deon": "none"},
+    },
+    # the best error per second: 16 coverage samples, traced shadows, dual scattering
+    "balanced": {
+        "transparency": {"coverage": {"samples": 16}},
+        "shadows": {"traced": {}},
+        "multiple_scattering": {"karis": "dual", "chiang": "dual", "deon": "none"},
+    },
+    # the closest: 64 coverage samples (the near field's noise falls with them)
+    "accurate": {
+        "transparency": {"coverage": {"samples": 64}},
+        "shadows": {"traced": {}},
+        "multiple_scattering": {"karis": "dual", "chiang": "dual", "deon": "none"},
+    },
+}
+DEFAULT_QUALITY = "balanced"
+
+# -- old flat keys -------------------------------------------------------------------
+
+#: Flat keys of older scene files -> (group, key within the method) or the group itself.
+_FLAT: Dict[str, Tuple[str, str | None]] = {
+    "layers": ("transparency", "layers"),
+    "samples": ("transparency", "samples"),
+    "near_field": ("transparency", "near_field"),
+    "hair_cull_transmittance": ("transparency", "cull_transmittance"),
+    "shadow_model": ("shadows", None),
+    "shadow_map_size": ("shadows", "map_size"),
+    "pcf_radius": ("shadows", "pcf_radius"),
+    "shadow_density": ("shadows", "density"),
+    "dual_forward_density": ("multiple_scattering", "forward_density"),
+    "dual_back_density": ("multiple_scattering", "back_density"),
+    "dual_backscatter": ("multiple_scattering", "backscatter"),
+    "sphere_bounce": ("multiple_scattering", "sphere_bounce"),
+}
+#: The exact speed-ups: not settings (they never change an image).
+SPEEDUPS: Tuple[str, ...] = ("frustum_culling", "backface_culling", "opaque_culling", "skip_unused",
+                             "reuse_shadow_maps")
+
+
+def _fail(path: str, msg: str) -> SceneError:
+    return SceneError(f"render.{path}: {msg}")
+
+
+def _method_of(value: Any, group: str) -> Tuple[str, Dict[str, Any]]:
+    """(method, its options) of a group's value: a name or {name: {options}}."""
+    methods = GROUPS[group][1]
+    names = " or ".join(repr(m) for m in methods)
+    if isinstance(value, str):
+        if value not in methods:
+            raise _fail(group, f"expected {names}, got {value!r:.80}")
+        return value, {}
+    if isinstance(value, Mapping):
+        if len(value) != 1:
+            raise _fail(group, f"expected one method ({names}) with its options, got {len(value)} keys")
+        (method, opts), = value.items()
+        if method not in methods:
+            raise _fail(group, f"expected {names}, got {method!r:.80}")
+        if opts is None:
+            opts = {}
+        if not isinstance(opts, Mapping):
+            raise _fail(f"{group}.{method}", f"expected an object of options, got {type(opts).__name__}")
+        return method, dict(opts)
+    raise _fail(group, f"expected {names}, or {{method: {{options}}}}, got {type(value).__name__}")
+
+
+def translate_flat(settings: Mapping[str, Any], where: str = "render") -> Dict[str, Any]:
+    """``settings`` with the flat keys of older files turned into the grouped
+    form, read as they were read before (a ``DeprecationWarning`` names each
+    new spelling): an option's method is the one the settings name, else
+    the old default (transparency 'mlab', or 'coverage' for ``samples`` and
+    ``near_field``; shadows 'exponential'; dual scattering for ``dual_*``
+    and ``sphere_bounce``). The speed-up switches are refused."""
+    if not isinstance(settings, Mapping):
+        raise SceneError(f"{where}: expected an object of render settings, got {type(settings).__name__}")
+    for k in settings:
+        if k in SPEEDUPS:
+            raise _fail(k, "is an exact speed-up (it never changes the image), not a render setting: "
+                           "switch it off for a benchmark with hairshade.bench_render.render_switched(scene, "
+                           f"off=({k!r},))")
+    out = {k: v for k, v in settings.items() if k not in _FLAT}
+    if out.get("multiple_scattering") == "auto":
+        warnings.warn("render.multiple_scattering 'auto' is deprecated: leave it out (the quality preset "
+                      "decides)", DeprecationWarning, stacklevel=3)
+        del out["multiple_scattering"]
+    for group in GROUPS:
+        keys = {k: settings[k] for k, (g, _) in _FLAT.items() if g == group and k in settings}
+        if not keys:
+            continue
+        if "shadow_model" in keys:
+            # the flat key names the method; options of render.shadows that
+            # the method also takes are kept (map_size, pcf_radius)
+            method, opts = _method_of(keys.pop("shadow_model"), "shadows")
+            if "shadows" in out:
+                _, given = _method_of(out["shadows"], "shadows")
+                takes = get_type_hints(GROUPS["shadows"][1][method])
+                opts = {k: v for k, v in given.items() if k in takes}
+            warnings.warn(f"render.shadow_model is deprecated: write render.shadows ({method!r})",
+                          DeprecationWarning, stacklevel=3)
+        elif group in out:
+            method, opts = _method_of(out[group], group)
+        else:
+            method, opts = _OLD_DEFAULT[group](keys), {}
+        for k, v in keys.items():
+            new = _FLAT[k][1]
+            opts[new] = v
+            warnings.warn(f"render.{k} is deprecated: write render.{group}.{method}.{new} "
+                          f'({{"{group}": {{"{method}": {{"{new}": ...}}}}}})', DeprecationWarning, stacklevel=3)
+        out[group] = {method: opts} if opts else method
+    return out
+
+
+_OLD_DEFAULT: Dict[str, Callable[[Mapping[str, Any]], str]] = {
+    "transparency": lambda keys: "coverage" if {"samples", "near_field"} & set(keys) else "mlab",
+    "shadows": lambda keys: "exponential",
+    "multiple_scattering": lambda keys: "dual",
+}
+
+
+# -- resolution ----------------------------------------------------------------------
+
+
+def resolve(settings: Mapping[str, Any], model: str, environment: bool) -> Dict[str, Any]:
+    """The renderer's flat options for ``settings`` (a ``render`` section,
+    old flat keys translated first) with the scene's hair ``model`` ('karis',
+    'chiang', 'deon') and whether it has an ``environment`` light. Raises
+    :class:`SceneError` naming a key that is unknown or does not apply; value
+    ranges are checked by the renderer."""
+    s = translate_flat(settings)
+    known = set(get_type_hints(RenderSettings))
+    for k in s:
+        if k not in known:
+            raise _fail(str(k), f"unknown render setting (allowed: {', '.join(sorted(known))})")
+    quality = s.get("quality", DEFAULT_QUALITY)
+    if quality not in QUALITIES:
+        raise _fail("quality", f"expected {' or '.join(map(repr, QUALITIES))}, got {quality!r:.80}")
+    preset = PRESETS[quality]
+    chosen: Dict[str, Tuple[str, Dict[str, Any], Dict[str, Any]]] = {}  # group -> (method, preset's, user's)
+    for group in GROUPS:
+        p = preset[group]
+        if isinstance(p, Mapping) and model in p:
+            p = p[model]
+        pm, popts = _method_of(p, group)
+        if group in s:
+            um, uopts = _method_of(s[group], group)
+            chosen[group] = (um, popts if um == pm else {}, uopts)
+        else:
+            chosen[group] = (pm, popts, {})
+    ctx = Context(model, environment, chosen["transparency"][0], chosen["shadows"][0],
+                  chosen["multiple_scattering"][0], s.get("shading", "pixel"))
+    native: Dict[str, Any] = {}
+    for group, (method, popts, uopts) in chosen.items():
+        allowed, why = _METHOD_MODELS.get((group, method), (lambda m: True, ""))
+        if not allowed(model):
+            raise _fail(group, why)
+        native[GROUPS[group][0]] = method
+        by_key = {f.path.rsplit(".", 1)[-1]: f for f in _fields_of(GROUPS[group][1][method], "")}
+        for key, value in {**popts, **uopts}.items():
+            path = f"{group}.{method}.{key}"
+            f = by_key.get(key)
+            if f is None:
+                owners = [m for m, td in GROUPS[group][1].items() if key in get_type_hints(td)]
+                if owners:
+                    src = "" if group in s else f" (the method of quality {quality!r})"
+                    raise _fail(path, f"does not apply to {group} {method!r}{src}: it belongs to "
+                                      f"{' and '.join(map(repr, owners))}")
+                raise _fail(path, f"unknown option of {group} {method!r} "
+                                  f"(allowed: {', '.join(sorted(by_key)) or 'none'})")
+            if key in uopts and f.applies is not None and not f.applies.when(ctx):
+                raise _fail(path, f.applies.why)
+            native[f.native] = value
+    for f in _fields_of(RenderSettings, ""):
+        if f.path in s:
+            if f.applies is not None and not f.applies.when(ctx):
+                raise _fail(f.path, f.applies.why)
+            native[f.native] = s[f.path]
+    return native
+
+
+def settings_of(overrides: Mapping[str, Any], base: Mapping[str, Any]) -> Dict[str, Any]:
+    """``base`` (a scene's render section) with ``overrides`` (keywords of
+    :func:`hairshade.render`) set, as writing them in the scene file would:
+    a keyword replaces the key of the same name (old flat keywords are
+    translated first, against the base's methods)."""
+    base = translate_flat(base)
+    over = translate_flat({**{g: base[g] for g in GROUPS if g in base}, **overrides}) if any(
+        k in _FLAT for k in overrides) else dict(overrides)
+    return {**base, **over}
+
+
+def markdown() -> str:
+    """The settings as a Markdown reference (docs/options.md), with the
+    renderer's ranges and the presets."""
+    from . import _native
+
+    ranges = _native.render_option_ranges()
+    lines = ["# Render settings", "",
+             "Generated by `scripts/quality_table.py --options` from `hairshade/options.py`; "
+             "ranges are the renderer's (`hairshade._native.render_option_ranges`).", "",
+             "| setting | range | description |", "| --- | --- | --- |"]
+
+    def rng(native: str, typ: Any) -> str:
+        if native in ranges:
+            lo, hi = ranges[native]
+            return f"{lo:g} to {hi:g}"
+        args = get_args(typ)
+        return " or ".join(f"'{a}'" for a in args if isinstance(a, str)) or "true/false" if typ is bool else \
+            " or ".join(f"'{a}'" for a in args if isinstance(a, str))
+
+    lines.append(f"| `quality` | {' / '.join(QUALITIES)} | {_group_doc('quality')} |")
+    for group, (_, methods) in GROUPS.items():
+        lines.append(f"| `{group}` | {' / '.join(methods)} | {_group_doc(group)} |")
+        for method, td in methods.items():
+            for f in _fields_of(td, f"{group}.{method}."):
+                note = f" ({f.applies.why.split(':')[0]})" if f.applies else ""
+                lines.append(f"| `{f.path}` | {rng(f.native, f.type)} | {f.doc}{note} |")
+    for f in _fields_of(RenderSettings, ""):
+        note = f" Only where it applies: {f.applies.why}." if f.applies else ""
+        lines.append(f"| `{f.path}` | {rng(f.native, f.type)} | {f.doc}.{note} |")
+    lines += ["", "## Presets", "", "| quality | transparency | shadows | multiple scattering (KarisHair / ChiangHair / DEonHair) |",
+              "| --- | --- | --- | --- |"]
+    for q, p in PRESETS.items():
+        ms = p["multiple_scattering"]
+        lines.append(f"| `{q}` | `{p['transparency']}` | `{p['shadows']}` | {ms['karis']} / {ms['chiang']} / {ms['deon']} |")
+    return "\n".join(lines) + "\n"
+
+
+def path_of(native: str, settings: Mapping[str, Any]) -> str:
+    """Where ``settings`` write the renderer's option ``native`` (for its
+    error messages): its path under the method the settings chose."""
+    candidates = [f for f in fields() if f.native == native]
+    for f in candidates:
+        parts = f.path.split(".")
+        if len(parts) == 3 and parts[0] in settings:
+            try:
+                if _method_of(settings[parts[0]], parts[0])[0] == parts[1]:
+                    return f.path
+            except SceneError:
+                pass
+    return candidates[0].path if candidates else native
