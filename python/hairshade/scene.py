@@ -19,8 +19,8 @@ A scene file::
       },
       "meshes": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "albedo": [0.5, 0.4, 0.3]},
                  {"type": "obj", "file": "floor.obj", "albedo": [0.6, 0.6, 0.6]}],
-      "render": {"transparency": "mlab", "layers": 4, "shadow_map_size": 1024,
-                 "shadow_model": "exponential", "shadow_density": 20, "background": [0, 0, 0]}
+      "render": {"quality": "balanced", "transparency": {"mlab": {"layers": 4}},
+                 "shadows": {"exponential": {"map_size": 1024, "density": 20}}, "background": [0, 0, 0]}
     }
 
 - ``direction`` of a directional light points *towards* the light;
@@ -39,72 +39,25 @@ A scene file::
 - ``material.model`` is ``karis`` (KarisHair keyword arguments),
   ``chiang`` (ChiangHair keyword arguments; shaded with its far field) or
   ``deon`` (DEonHair keyword arguments; slow unless ``h_samples`` is set).
-- ``render.shadow_model``: ``exponential`` (default, Karis 2016:
-  ``exp(-shadow_density * depth behind the first hair)``), ``opacity`` (a
-  deep opacity map: the nearest 4 fibers per texel kept exactly, with their
-  strand, so a fiber does not shadow itself, and the rest in 12 depth slabs
-  of growing width: 112 bytes per shadow-map texel), ``density`` (hair's
-  shadow from the fiber density grid: ``exp(-n)`` for the expected number
-  ``n`` of fibers crossed towards the light; the map holds opaque geometry
-  only) or ``traced`` (rays through the strands: exact on the rendered
-  geometry and slow, a reference).
-- ``render.density_resolution`` (8 to 512, default 128): voxels along the
-  longest side of the hair's bounds in the fiber density grid (shadow model
-  ``density`` and dual scattering).
-- ``render.multiple_scattering``: ``auto`` (default: KarisHair's own term
-  for KarisHair, none for the others), ``none``, ``karis`` (KarisHair only)
-  or ``dual`` (ChiangHair and KarisHair: dual scattering through the
-  density grid, Zinke et al. 2008, tables integrated from the material's
-  far field, see ``ChiangHair.dual_terms`` and ``KarisHair.dual_terms``;
-  KarisHair's own term is then
-  off and an environment is shaded as lights with fiber counts, as for
-  ChiangHair); ``dual_forward_density`` (0 to 1, default
-  0.7) and ``dual_back_density`` (0 to 1, default 1) are its d_f and d_b
-  (chosen by measurement against path-traced heads, docs/dense_hair.md);
-  ``dual_backscatter``: ``local`` (default: Zinke's local back scattering
-  A_b) or ``two_stream`` (the light each fiber receives is the two
-  streams of a slab along each light's line, fiber counts towards and away
-  from the light: with ``dual_forward_density`` 1 it conserves energy, a
-  white slab in a white furnace renders within 1%, where ``local`` keeps
-  a fifth; on the dense heads it is closer on key- and environment-lit hair
-  and too bright on backlit blond, docs/dense_hair.md);
-  ``sphere_bounce`` (boolean, default true) adds, under dual scattering,
-  the light opaque spheres (a head) reflect back into the hair of what the
-  fibers let through to them (ignored otherwise).
-- ``render.shading``: ``pixel`` (default: every strand fragment shaded) or
-  ``vertex`` (strands shaded once per vertex and interpolated along each
-  segment; cards are always shaded per pixel).
-- ``render.background`` is the radiance behind everything when the scene
-  has no environment light; with one, the environment itself is seen.
-- ``render.transparency``: ``mlab`` (default: Multi-Layer Alpha Blending
-  of anti-aliased footprints, ``layers`` per pixel), ``sorted`` (every
-  fragment, composited in depth order) or ``coverage`` (hair as opaque
-  sub-pixel geometry: the nearest fiber per coverage sample, ``samples``
-  per pixel, 1 to 64, default 16; thin strands add up to their true area,
-  hair hides what lies behind it, and only visible fragments are shaded;
-  cards cover samples by alpha to coverage). With coverage samples,
-  ``render.near_field`` (boolean, default true) shades ChiangHair's single
-  scattering of each light by the near field at each sample's offset across
-  the fiber it sees, as a path tracer's hit does (a fiber partly hidden by
-  those in front shows only some offsets); its noise falls as the samples
-  grow. Off: the far field, once per fragment.
+- ``render``: the render settings, defined in :mod:`hairshade.options`
+  (reference: ``docs/options.md``). ``quality`` (``fast``, ``balanced``
+  (default), ``accurate``) picks a preset measured against path tracing
+  (``docs/quality.md``); ``transparency`` (``mlab``, ``sorted``,
+  ``coverage``), ``shadows`` (``exponential``, ``opacity``, ``density``,
+  ``traced``) and ``multiple_scattering`` (``none``, ``karis``, ``dual``)
+  are a method's name or ``{method: {options}}``, so that an option is
+  written under the method it belongs to; ``shading``, ``lod``,
+  ``density_resolution``, ``environment_directions``,
+  ``light_cull_threshold`` and ``background`` stand alone. A setting that
+  does not apply (to its method, to the hair model, or to a scene without
+  an environment) is an error at load naming it; the renderer checks the
+  ranges. The older flat keys (``layers``, ``samples``,
+  ``shadow_model``, ``dual_forward_density``, ...) are translated with a
+  ``DeprecationWarning`` that names the new spelling.
 - An environment light shades KarisHair by its environment variant, and
   ChiangHair and DEonHair by a spherical quadrature of
   ``render.environment_directions`` directions (8 to 1024, default 32), each
-  dimmed by the fibers on its way (a density grid at a quarter of
-  ``density_resolution``; dual scattering applies to it as to a light).
-- ``render.lod``: the fraction of the strands drawn, in (0, 1] (default 1),
-  each drawn wider by its inverse, or ``auto`` (from the strands' width on
-  screen); see :func:`hairshade.render`.
-- ``render`` takes every render option of :func:`hairshade.render`
-  (``transparency``, ``layers``, ``samples``, ``shadow_map_size``, ``shadow_model``,
-  ``shadow_density``, ``pcf_radius``, ``background``, ``shading``, the
-  culling switches, ``light_cull_threshold``, ``density_resolution``,
-  ``multiple_scattering``, ``dual_forward_density``,
-  ``dual_back_density``, ``dual_backscatter``, ``sphere_bounce``, ``near_field``,
-  ``environment_directions``, ``lod``); their types and ranges are
-  checked by the renderer itself (``hairshade._native.render_options``), the
-  one place they are defined.
+  dimmed by the fibers on its way.
 - Every field is checked on load; an error names the file, the field's path
   (``hair.strands[3].points[5]``) and what is wrong. Types are strict: a
   number is a JSON number (not a string, not a boolean), an integer field

@@ -45,6 +45,13 @@ def render() -> tuple[float, int]:
     img = hs.render(scene, width=64, progress=False)
     brighter = img * 2  # an array, not a union with the stats tuple
     img2, stats = hs.render(scene, width=64, return_stats=True)
+    # settings by keyword, typed: a misspelt key or an option under the wrong
+    # method is a mypy error (tests/test_typing.py checks that too)
+    fast = hs.render(scene, width=32, quality="fast", transparency={"mlab": {"layers": 8}},
+                     shadows={"opacity": {"map_size": 512}}, progress=False)
+    exact = hs.render(scene, width=32, quality="accurate", transparency={"coverage": {"samples": 4}},
+                      shadows="traced", multiple_scattering={"dual": {"backscatter": "two_stream"}}, progress=False)
+    brighter = brighter + float(fast.mean() + exact.mean())
     pts = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 0]], dtype=np.float64)
     arrays = hs.Scene.from_arrays(pts, 0.01, [0, 2, 4], material={"model": "karis"})
     with tempfile.TemporaryDirectory() as tmp:
