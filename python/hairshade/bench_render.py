@@ -426,8 +426,9 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
     for label, scene, settings, on_off, off_off in cases:
         if "reuse_shadow_maps" not in off_off:
             on_off, off_off = on_off + ("reuse_shadow_maps",), off_off + ("reuse_shadow_maps",)
-        on_settings = settings
-        off_settings = {**settings, **cases_off.get(label, {})}
+        # KarisHair with its own multiple-scattering term: the path the skips act on
+        on_settings = {"quality": "fast", **settings}
+        off_settings = {**on_settings, **cases_off.get(label, {})}
         frame_on = lambda: render_switched(scene, w, h, off=on_off, **on_settings)  # noqa: E731
         frame_off = lambda: render_switched(scene, w, h, off=off_off, **off_settings)  # noqa: E731
         a, b = frame_on(), frame_off()
