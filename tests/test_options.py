@@ -165,6 +165,9 @@ def test_06_old_flat_keys_translate_with_a_warning():
         b = hs.Scene.from_dict(new)
     assert a.render == b.render
     np.testing.assert_array_equal(hs.render(a, progress=False), hs.render(b, progress=False))
+    # the old 'auto' keyword: the preset decides, with a warning
+    with pytest.warns(DeprecationWarning, match="multiple_scattering 'auto' is deprecated"):
+        assert b.options(multiple_scattering="auto") == b.options()
     # inapplicable old keys are no longer ignored
     with pytest.raises(hs.SceneError, match="render.transparency.mlab.samples: does not apply"):
         with pytest.warns(DeprecationWarning):
@@ -197,6 +200,8 @@ def test_08_speedups_are_benchmark_switches():
                                   render_switched(s, off=options.SPEEDUPS))
     with pytest.raises(ValueError, match="off: expected names among"):
         render_switched(s, off=("culling",))
+    with pytest.raises(hs.SceneError, match="render.frustum_culling: is an exact speed-up"):
+        hs.render(s, frustum_culling=False)
 
 
 # 09: the command line sets the same settings (--quality, a method, --set PATH=VALUE)

@@ -36,17 +36,10 @@ they are not settings but switches of the benchmark
 
 from __future__ import annotations
 
-import sys
 import warnings
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Literal, Mapping, Sequence, Tuple, Union, get_args, get_origin
-
-if sys.version_info >= (3, 9):
-    from typing import Annotated, get_type_hints
-if sys.version_info >= (3, 11):
-    from typing import TypedDict
-else:  # typing_extensions is not a dependency; TypedDict with total= works from 3.9
-    from typing import TypedDict
+from typing import (Annotated, Any, Callable, Dict, List, Literal, Mapping, Sequence, Tuple, TypedDict, Union,
+                    get_args, get_origin, get_type_hints)
 
 from ._errors import SceneError
 
@@ -86,7 +79,6 @@ class Context:
     transparency: str
     shadows: str
     multiple_scattering: str
-    shading: str
 
     @property
     def environment_as_lights(self) -> bool:
@@ -444,7 +436,7 @@ def resolve(settings: Mapping[str, Any], model: str, environment: bool) -> Dict[
         else:
             chosen[group] = (pm, popts, {})
     ctx = Context(model, environment, chosen["transparency"][0], chosen["shadows"][0],
-                  chosen["multiple_scattering"][0], s.get("shading", "pixel"))
+                  chosen["multiple_scattering"][0])
     native: Dict[str, Any] = {}
     for group, (method, popts, uopts) in chosen.items():
         allowed, why = _METHOD_MODELS.get((group, method), (lambda m: True, ""))
@@ -480,8 +472,7 @@ def settings_of(overrides: Mapping[str, Any], base: Mapping[str, Any]) -> Dict[s
     a keyword replaces the key of the same name (old flat keywords are
     translated first, against the base's methods)."""
     base = translate_flat(base)
-    over = translate_flat({**{g: base[g] for g in GROUPS if g in base}, **overrides}) if any(
-        k in _FLAT for k in overrides) else dict(overrides)
+    over = translate_flat({**{g: base[g] for g in GROUPS if g in base}, **overrides})
     return {**base, **over}
 
 
@@ -500,9 +491,9 @@ def markdown() -> str:
         if native in ranges:
             lo, hi = ranges[native]
             return f"{lo:g} to {hi:g}"
-        args = get_args(typ)
-        return " or ".join(f"'{a}'" for a in args if isinstance(a, str)) or "true/false" if typ is bool else \
-            " or ".join(f"'{a}'" for a in args if isinstance(a, str))
+        if typ is bool:
+            return "true/false"
+        return " or ".join(f"'{a}'" for a in get_args(typ) if isinstance(a, str))
 
     lines.append(f"| `quality` | {' / '.join(QUALITIES)} | {_group_doc('quality')} |")
     for group, (_, methods) in GROUPS.items():
