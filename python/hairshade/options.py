@@ -28,7 +28,9 @@ option is one line here plus the code that uses it.
 
 Older scene files spelt the settings flat (``"samples": 64``,
 ``"shadow_model": "traced"``, ``"dual_forward_density": 0.7``): those keys
-are translated with a ``DeprecationWarning`` that names the new spelling.
+are translated with a ``DeprecationWarning`` that names the new spelling,
+and a section in the old spelling keeps the old defaults of what it leaves
+out (quality 'fast', shadows 'exponential'), so it renders as it did.
 The exact speed-ups (culling, reuse of shadow maps) never change an image;
 they are not settings but switches of the benchmark
 (:func:`hairshade.bench_render.render_switched`).
@@ -353,13 +355,17 @@ def _method_of(value: Any, group: str) -> Tuple[str, Dict[str, Any]]:
     raise _fail(group, f"expected {names}, or {{method: {{options}}}}, got {type(value).__name__}")
 
 
-def translate_flat(settings: Mapping[str, Any], where: str = "render") -> Dict[str, Any]:
+def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_section: bool = False) -> Dict[str, Any]:
     """``settings`` with the flat keys of older files turned into the grouped
     form, read as they were read before (a ``DeprecationWarning`` names each
     new spelling): an option's method is the one the settings name, else
     the old default (transparency 'mlab', or 'coverage' for ``samples`` and
     ``near_field``; shadows 'exponential'; dual scattering for ``dual_*``
-    and ``sphere_bounce``). The speed-up switches are refused."""
+    and ``sphere_bounce``). With ``whole_section`` (a scene file's
+    ``render``), a section in the old spelling also keeps the old defaults
+    of what it leaves out: quality 'fast' (MLAB, the model's own multiple
+    scattering) and shadows 'exponential', so that it renders as it did.
+    The speed-up switches are refused."""
     if not isinstance(settings, Mapping):
         raise SceneError(f"{where}: expected an object of render settings, got {type(settings).__name__}")
     for k in settings:
@@ -368,6 +374,15 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render") -> Dict[s
                            "switch it off for a benchmark with hairshade.bench_render.render_switched(scene, "
                            f"off=({k!r},))")
     out = {k: v for k, v in settings.items() if k not in _FLAT}
+    old = any(k in _FLAT for k in settings) or out.get("multiple_scattering") == "auto"
+    if whole_section and old and "quality" not in out:
+        warnings.warn(f"{where}: the flat spelling of render settings is deprecated; this section is read as it "
+                      "rendered before (quality 'fast', shadows 'exponential' unless it names them): write the "
+                      "settings grouped (docs/options.md) to render with the quality presets",
+                      DeprecationWarning, stacklevel=3)
+        out["quality"] = "fast"
+        if "shadows" not in out and "shadow_model" not in settings:
+            out["shadows"] = "exponential"
     if out.get("multiple_scattering") == "auto":
         warnings.warn("render.multiple_scattering 'auto' is deprecated: leave it out (the quality preset "
                       "decides)", DeprecationWarning, stacklevel=3)
