@@ -85,7 +85,7 @@ class Context:
     @property
     def environment_as_lights(self) -> bool:
         # the renderer's env_light::as_lights
-        return self.environment and (self.model != "karis" or self.multiple_scattering == "dual")
+        return self.environment and (self.model != "karis" or self.multiple_scattering in ("dual", "volume"))
 
 
 _CHIANG = Applies(lambda c: c.model == "chiang", "it applies to ChiangHair only")
@@ -96,8 +96,8 @@ _GRID = Applies(
 _ENV = Applies(lambda c: c.environment_as_lights,
                "the environment is not shaded as lights here: it applies to a scene with an environment light "
                "and ChiangHair, DEonHair, or dual scattering")
-_CULL = Applies(lambda c: c.model == "karis" and c.multiple_scattering != "dual",
-                "light culling applies to KarisHair without dual scattering")
+_CULL = Applies(lambda c: c.model == "karis" and c.multiple_scattering not in ("dual", "volume"),
+                "light culling applies to KarisHair without dual or volume scattering")
 
 
 # -- the definition ------------------------------------------------------------------
@@ -147,6 +147,15 @@ class DualOptions(TypedDict, total=False):
         "light the opaque spheres (a head) reflect back into the hair")]
 
 
+class VolumeOptions(TypedDict, total=False):
+    resolution: Annotated[int, Native("volume_resolution"), Doc(
+        "voxels along the longest side of the hair's bounds in the transport grid")]
+    photons: Annotated[int, Native("volume_photons"), Doc(
+        "photons traced from the lights and the environment (shared by power)")]
+    bins: Annotated[int, Native("volume_bins"), Doc(
+        "octahedral direction bins per side (bins² directions per voxel)")]
+
+
 class NoOptions(TypedDict, total=False):
     """A method without options."""
 
@@ -191,9 +200,13 @@ class _Dual(TypedDict):
     dual: DualOptions
 
 
+class _Volume(TypedDict):
+    volume: VolumeOptions
+
+
 Transparency = Union[Literal["mlab", "sorted", "coverage"], _Mlab, _Sorted, _Coverage]
 Shadows = Union[Literal["exponential", "opacity", "density", "traced"], _Exponential, _Opacity, _Density, _Traced]
-MultipleScattering = Union[Literal["none", "karis", "dual"], _NoMS, _KarisMS, _Dual]
+MultipleScattering = Union[Literal["none", "karis", "dual", "volume"], _NoMS, _KarisMS, _Dual, _Volume]
 
 
 class RenderSettings(TypedDict, total=False):
@@ -208,7 +221,8 @@ class RenderSettings(TypedDict, total=False):
         "exp(-n) for the fibers counted in a density grid; traced: rays through the strands (exact)")]
     multiple_scattering: Annotated[MultipleScattering, Doc(
         "none; karis: KarisHair's own term; dual: dual scattering through the fiber density grid "
-        "(ChiangHair, KarisHair)")]
+        "(ChiangHair, KarisHair); volume: light traced through the hair as an oriented fiber medium, "
+        "solved once per lighting and reused for every view (ChiangHair, KarisHair)")]
     shading: Annotated[Literal["pixel", "vertex"], Native("shading"), Doc(
         "strands shaded per fragment, or per vertex and interpolated")]
     lod: Annotated[Union[float, Literal["auto"]], Native("lod"), Doc(
@@ -228,7 +242,8 @@ GROUPS: Dict[str, Tuple[str, Dict[str, type]]] = {
     "transparency": ("transparency", {"mlab": MlabOptions, "sorted": SortedOptions, "coverage": CoverageOptions}),
     "shadows": ("shadow_model", {"exponential": ExponentialShadows, "opacity": MapShadows,
                                  "density": MapShadows, "traced": MapShadows}),
-    "multiple_scattering": ("multiple_scattering", {"none": NoOptions, "karis": NoOptions, "dual": DualOptions}),
+    "multiple_scattering": ("multiple_scattering", {"none": NoOptions, "karis": NoOptions, "dual": DualOptions,
+                                                   "volume": VolumeOptions}),
 }
 
 #: Methods that need a model: (model allowed?, why).
@@ -236,6 +251,8 @@ _METHOD_MODELS: Dict[Tuple[str, str], Tuple[Callable[[str], bool], str]] = {
     ("multiple_scattering", "karis"): (lambda m: m == "karis",
                                        "'karis' is KarisHair's own term; ChiangHair takes 'dual' or 'none'"),
     ("multiple_scattering", "dual"): (lambda m: m != "deon", "'dual' is not available for DEonHair (use 'none')"),
+    ("multiple_scattering", "volume"): (lambda m: m != "deon",
+                                        "'volume' is not available for DEonHair (use 'none')"),
 }
 
 

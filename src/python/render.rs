@@ -196,6 +196,9 @@ fn range(key: &str) -> (f64, f64) {
         "environment_directions" => int(crate::raster::env_light::DIRECTIONS_RANGE),
         "dual_forward_density" | "dual_back_density" | "hair_cull_transmittance" => (0.0, 1.0),
         "lod" => (0.0, 1.0),
+        "volume_resolution" => int(crate::raster::volume::RESOLUTION),
+        "volume_photons" => int(crate::raster::volume::PHOTONS),
+        "volume_bins" => int(crate::raster::volume::BINS),
         // shadow_density, light_cull_threshold
         _ => (0.0, f64::MAX),
     }
@@ -219,6 +222,9 @@ pub fn render_option_ranges(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         "hair_cull_transmittance",
         "light_cull_threshold",
         "lod",
+        "volume_resolution",
+        "volume_photons",
+        "volume_bins",
     ] {
         d.set_item(key, range(key))?;
     }
@@ -239,8 +245,9 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
     let multiple_scattering = match r.choice(
         "multiple_scattering",
         "auto",
-        &["auto", "none", "karis", "dual"],
+        &["auto", "none", "karis", "dual", "volume"],
     )? {
+        "volume" => Some(MultipleScattering::Volume),
         "none" => Some(MultipleScattering::None),
         "karis" => Some(MultipleScattering::Karis),
         "dual" => Some(MultipleScattering::Dual),
@@ -284,6 +291,9 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
             "two_stream" => Backscatter::TwoStream,
             _ => Backscatter::Local,
         },
+        volume_resolution: r.int("volume_resolution", def.volume_resolution as i64)? as usize,
+        volume_photons: r.int("volume_photons", def.volume_photons as i64)? as usize,
+        volume_bins: r.int("volume_bins", def.volume_bins as i64)? as usize,
         sphere_bounce: r.flag("sphere_bounce", def.sphere_bounce)?,
         near_field: r.flag("near_field", def.near_field)?,
         environment_directions: r
@@ -343,6 +353,7 @@ fn options_dict<'py>(
             Some(MultipleScattering::None) => "none",
             Some(MultipleScattering::Karis) => "karis",
             Some(MultipleScattering::Dual) => "dual",
+            Some(MultipleScattering::Volume) => "volume",
         },
     )?;
     d.set_item("dual_forward_density", o.dual_forward_density as f64)?;
@@ -354,6 +365,9 @@ fn options_dict<'py>(
             Backscatter::TwoStream => "two_stream",
         },
     )?;
+    d.set_item("volume_resolution", o.volume_resolution)?;
+    d.set_item("volume_photons", o.volume_photons)?;
+    d.set_item("volume_bins", o.volume_bins)?;
     d.set_item("sphere_bounce", o.sphere_bounce)?;
     d.set_item("near_field", o.near_field)?;
     d.set_item("environment_directions", o.environment_directions)?;
@@ -451,6 +465,10 @@ pub fn render<'py>(
     d.set_item("light_cull_max_skipped", stats.light_cull_max_skipped)?;
     d.set_item("shadow_ms", stats.shadow_ms)?;
     d.set_item("shadow_maps_reused", stats.shadow_maps_reused)?;
+    d.set_item("volume_ms", stats.volume_ms)?;
+    d.set_item("volume_reused", stats.volume_reused)?;
+    d.set_item("volume_voxels", stats.volume_voxels)?;
+    d.set_item("volume_transmittance", stats.volume_transmittance)?;
     d.set_item("shadow_maps_skipped", stats.shadow_maps_skipped)?;
     d.set_item("lod_fraction", stats.lod_fraction as f64)?;
     d.set_item("strands_drawn", stats.strands_drawn)?;

@@ -39,7 +39,8 @@ pub const DIRECTIONS_RANGE: (usize, usize) = (8, 1024);
 /// lobes, except under dual scattering (which needs the count towards each
 /// direction).
 pub fn as_lights(hair: &HairShading, ms: MultipleScattering) -> bool {
-    !matches!(hair, HairShading::Karis(_)) || ms == MultipleScattering::Dual
+    !matches!(hair, HairShading::Karis(_))
+        || matches!(ms, MultipleScattering::Dual | MultipleScattering::Volume)
 }
 
 /// The environment as directional lights, with the fiber count towards each.

@@ -31,6 +31,8 @@ pub struct Methods {
     pub multiple_scattering: MultipleScattering,
     /// Dual scattering ([`crate::fiber::dual`]).
     pub dual: bool,
+    /// Multiple scattering through the volume ([`super::volume`]).
+    pub volume: bool,
     /// Per shadowed light, the fiber count towards it (the `density`
     /// shadow model, and dual scattering).
     pub fiber_counts: bool,
@@ -76,6 +78,12 @@ impl Methods {
                     message: "'dual' is not available for DEonHair (use 'none')",
                 })
             }
+            (HairShading::DEon(_), MultipleScattering::Volume) => {
+                Err(MethodError {
+                    option: "multiple_scattering",
+                    message: "'volume' is not available for DEonHair (use 'none')",
+                })
+            }
             _ => Ok(()),
         }
     }
@@ -89,6 +97,7 @@ impl Methods {
         Self {
             multiple_scattering: ms,
             dual,
+            volume: ms == MultipleScattering::Volume && !matches!(scene.hair, HairShading::DEon(_)),
             fiber_counts: count_shadows || dual,
             count_shadows,
             counts_behind: dual && opts.dual_backscatter == super::scene::Backscatter::TwoStream,

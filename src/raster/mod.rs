@@ -49,6 +49,7 @@ pub mod shadow;
 pub mod tile;
 pub mod traced;
 pub mod view;
+pub mod volume;
 
 use crate::threads::pool;
 use bin::{bin_to_tiles, segment_tiles, triangle_tiles, TileGrid, TILE};
@@ -89,6 +90,16 @@ pub struct RenderStats {
     /// Shadowed lights whose map was not built: light culling skips them at
     /// every hair point (see `lights_without_visible_effect`).
     pub shadow_maps_skipped: usize,
+    /// Multiple scattering through the volume ([`volume`]): the solve's
+    /// wall time in milliseconds (0 when reused), whether it was reused,
+    /// and its voxels holding hair.
+    pub volume_ms: f64,
+    pub volume_reused: bool,
+    pub volume_voxels: usize,
+    /// The mean transmittance of rays from the hair in all directions
+    /// through the strands, through the medium, and through the medium
+    /// calibrated ([`volume::Calibration`]).
+    pub volume_transmittance: (f64, f64, f64),
     /// The fraction of the strands drawn ([`lod`]) and their number.
     pub lod_fraction: f32,
     pub strands_drawn: usize,
@@ -174,6 +185,28 @@ pub fn render_with_progress(
         )),
         _ => None,
     };
+    let volume = if methods.volume {
+        let tv = std::time::Instant::now();
+        let solved = volume::cached(
+            scene,
+            env_lights.as_ref(),
+            volume::VolumeSettings::of(opts),
+            Some(cancel),
+        );
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        if let Some((v, reused)) = &solved {
+            stats.volume_reused = *reused;
+            stats.volume_voxels = v.voxels();
+            stats.volume_ms = if *reused { 0.0 } else { ms(tv) };
+            let c = v.calibration;
+            stats.volume_transmittance = (c.strands, c.medium, c.calibrated);
+        }
+        solved.map(|s| s.0)
+    } else {
+        None
+    };
     let shader = Shader::new(
         scene,
         &shadows,
@@ -183,7 +216,8 @@ pub fn render_with_progress(
         Some(cancel),
         opts,
     )
-    .with_sphere_bounce(opts);
+    .with_sphere_bounce(opts)
+    .with_volume(volume);
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();

@@ -179,6 +179,8 @@ pub enum MultipleScattering {
     Karis,
     /// Dual scattering through the fiber density grid ([`crate::fiber::dual`]).
     Dual,
+    /// Light carried through the hair volume ([`super::volume`]).
+    Volume,
 }
 
 /// Order-independent transparency.
@@ -252,6 +254,12 @@ pub struct RenderOptions {
     /// two-stream slab of [`crate::fiber::dual::two_stream`] (which needs
     /// the fiber count away from each light as well).
     pub dual_backscatter: Backscatter,
+    /// Multiple scattering through the volume ([`super::volume`]): voxels
+    /// along the hair's longest side, photons, and octahedral direction
+    /// bins per side.
+    pub volume_resolution: usize,
+    pub volume_photons: usize,
+    pub volume_bins: usize,
     /// Under dual scattering, the light opaque spheres reflect into the
     /// hair ([`super::bounce`]).
     pub sphere_bounce: bool,
@@ -305,6 +313,9 @@ impl Default for RenderOptions {
             dual_forward_density: 0.7,
             dual_back_density: 1.0,
             dual_backscatter: Backscatter::Local,
+            volume_resolution: 48,
+            volume_photons: 1 << 20,
+            volume_bins: 8,
             sphere_bounce: true,
             near_field: true,
             environment_directions: super::env_light::DIRECTIONS,

@@ -101,6 +101,8 @@ pub struct Shader<'a> {
     env_lights: Option<super::env_light::EnvLights>,
     /// Light the opaque spheres reflect into the hair (dual scattering).
     bounce: Option<super::bounce::SphereBounce>,
+    /// Multiple scattering carried through the volume (`volume`).
+    volume: Option<Arc<super::volume::VolumeRadiance>>,
     /// Coverage samples shade the lights' single scattering by the near
     /// field at each sample's offset across its fiber (see [`near`]).
     near: bool,
@@ -184,6 +186,7 @@ impl<'a> Shader<'a> {
             traced,
             env_lights,
             bounce: None,
+            volume: None,
             cancel,
             f_max,
             cull_threshold,
@@ -207,6 +210,13 @@ impl<'a> Shader<'a> {
         self
     }
 
+    /// With the multiple scattering of a volume solve added at every hair
+    /// point.
+    pub fn with_volume(mut self, volume: Option<Arc<super::volume::VolumeRadiance>>) -> Self {
+        self.volume = volume;
+        self
+    }
+
     /// Whether the render was cancelled.
     #[inline]
     pub fn cancelled(&self) -> bool {
@@ -219,8 +229,8 @@ impl<'a> Shader<'a> {
     /// scattering) on their vector kernels.
     pub fn batches(&self) -> bool {
         match &self.hair {
-            HairShading::Karis(k) => !k.fast_asin() && self.dual.is_none(),
-            HairShading::ChiangFar(_) => self.dual.is_none(),
+            HairShading::Karis(k) => !k.fast_asin() && self.dual.is_none() && self.volume.is_none(),
+            HairShading::ChiangFar(_) => self.dual.is_none() && self.volume.is_none(),
             HairShading::DEon(_) => false,
         }
     }
@@ -429,6 +439,22 @@ impl<'a> Shader<'a> {
         f * e * vis
     }
 
+    /// The far-field response of a fiber with tangent `t`, seen from `v`, to
+    /// a directional light of unit irradiance from `l` (no shadow).
+    #[inline]
+    fn unit_response(&self, t: Vec3, v: Vec3, l: Vec3) -> Vec3 {
+        match &self.hair {
+            HairShading::Karis(k) => Vec3::from(k.eval(
+                &l.to_array(),
+                &v.to_array(),
+                &t.to_array(),
+                &Transmittance::default(),
+            )),
+            HairShading::ChiangFar(c) => chiang_far(c, t, v, l),
+            HairShading::DEon(_) => Vec3::ZERO,
+        }
+    }
+
     /// The far field dual scattering shades with (None: DEonHair).
     fn far_field(&self) -> Option<FarField<'_>> {
         match &self.hair {
@@ -484,6 +510,9 @@ impl<'a> Shader<'a> {
             (&self.bounce, &self.dual, self.far_field())
         {
             out += bounce.radiance(far, dual, p, fiber.radius, t, v);
+        }
+        if let Some(vol) = &self.volume {
+            out += vol.radiance(p, |l| self.unit_response(t, v, l));
         }
         out
     }

@@ -1,0 +1,299 @@
+//! The hair as an anisotropic medium of oriented fibers (Jakob et al. 2010):
+//! per voxel the fiber cross-section and a few of the fibers' tangents.
+//!
+//! From the strand segments (and the fibers baked cards stand for), cut
+//! into pieces at most half a voxel long and each given to the voxel of its
+//! midpoint:
+//!
+//! ```text
+//! S = Σ 2r ℓ / V,   M = Σ 2r ℓ t tᵀ / V          (r radius, ℓ length, t unit tangent)
+//! σt(ω) = √(S² − S ωᵀ M ω)                       (= Σ 2r ℓ |t × ω| / V for one orientation)
+//! ```
+//!
+//! σt is the expected number of fibers a ray along ω crosses per unit
+//! length: a ray along the fibers crosses almost none, one across them the
+//! most. A collision picks the fiber it meets among [`TANGENTS`] tangents
+//! kept per voxel (drawn in proportion to 2rℓ by a hash of the piece, so
+//! the same in every render), each weighted by `|t × ω|`: curly hair and
+//! crown whorls keep their spread of orientations.
+
+use super::super::scene::{Scene, Strands};
+use glam::Vec3;
+
+/// Tangents kept per voxel.
+pub const TANGENTS: usize = 6;
+
+/// The medium on a voxel grid; only voxels holding hair carry data.
+pub struct Medium {
+    pub origin: Vec3,
+    pub voxel: f32,
+    pub dims: [usize; 3],
+    /// Dense voxel index -> slot of an occupied voxel (`u32::MAX`: none).
+    pub slot: Vec<u32>,
+    /// Per slot: `[S, Mxx, Myy, Mzz, Mxy, Mxz, Myz]` per unit volume.
+    pub moments: Vec<[f32; 7]>,
+    /// Per slot: up to [`TANGENTS`] fiber tangents (zero: unused).
+    pub tangents: Vec<[Vec3; TANGENTS]>,
+    /// Per slot: the dense voxel index.
+    pub voxel_of: Vec<u32>,
+    /// Per slot: the fraction of the voxel outside opaque spheres (where
+    /// fibers and light can be; the moments are per unit of that volume).
+    pub free: Vec<f32>,
+}
+
+/// A 64-bit mix (splitmix64's finalizer).
+#[inline]
+pub fn mix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Bytes a medium of `scene` at `resolution` holds at most, before it is
+/// built: the dense slot index plus, per voxel that can hold hair (at most
+/// one per strand piece), its moments and tangents.
+pub fn bytes_estimate(scene: &Scene, resolution: usize) -> usize {
+    let Some((_, voxel, dims)) = crate::raster::density::grid_frame(scene, resolution) else {
+        return 0;
+    };
+    let dense = dims[0] * dims[1] * dims[2];
+    let pieces: f64 = [&scene.strands, &scene.cards.fibers]
+        .iter()
+        .map(|st| {
+            st.points
+                .windows(2)
+                .map(|w| ((w[1] - w[0]).length() / (0.5 * voxel)).ceil().max(1.0) as f64)
+                .sum::<f64>()
+        })
+        .sum();
+    let occupied = (pieces as usize).min(dense);
+    dense * 4 + occupied * (28 + TANGENTS * 12 + 4)
+}
+
+impl Medium {
+    /// The medium of `scene`'s strands and card fibers, `resolution` voxels
+    /// along the longest side of their bounds (padded by two voxels); None
+    /// without hair.
+    pub fn new(scene: &Scene, resolution: usize) -> Option<Self> {
+        let (origin, voxel, dims) = crate::raster::density::grid_frame(scene, resolution)?;
+        let mut m = Self {
+            origin,
+            voxel,
+            dims,
+            slot: vec![u32::MAX; dims[0] * dims[1] * dims[2]],
+            moments: Vec::new(),
+            tangents: Vec::new(),
+            voxel_of: Vec::new(),
+            free: Vec::new(),
+        };
+        // per slot: the reservoir's total weight
+        let mut total: Vec<[f32; TANGENTS]> = Vec::new();
+        let mut piece = 0u64;
+        for st in [&scene.strands, &scene.cards.fibers] {
+            m.add_strands(st, &mut total, &mut piece);
+        }
+        let inv_v = 1.0 / (voxel * voxel * voxel);
+        for v in &mut m.moments {
+            for x in v.iter_mut() {
+                *x *= inv_v;
+            }
+        }
+        m.add_shell();
+        m.free = m.voxel_of.iter().map(|&v| m.free_fraction(scene, v as usize)).collect();
+        for (mo, &f) in m.moments.iter_mut().zip(&m.free) {
+            if f > 0.0 {
+                for x in mo.iter_mut() {
+                    *x /= f;
+                }
+            }
+        }
+        Some(m)
+    }
+
+    /// Gives the empty voxels next to hair (26-neighbourhood) slots of
+    /// their own, with no fibers: the light there is tallied too, so that a
+    /// fiber at the hair's surface reads the light just outside it, not
+    /// only the light of the voxels deeper in.
+    fn add_shell(&mut self) {
+        let d = self.dims;
+        let filled = self.voxel_of.clone();
+        for v in filled {
+            let v = v as usize;
+            let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
+            for dk in -1i64..=1 {
+                for dj in -1i64..=1 {
+                    for di in -1i64..=1 {
+                        let (a, b, c) = (i as i64 + di, j as i64 + dj, k as i64 + dk);
+                        if a < 0 || b < 0 || c < 0 || a >= d[0] as i64 || b >= d[1] as i64 || c >= d[2] as i64 {
+                            continue;
+                        }
+                        let n = (c as usize * d[1] + b as usize) * d[0] + a as usize;
+                        if self.slot[n] == u32::MAX {
+                            self.slot[n] = self.moments.len() as u32;
+                            self.moments.push([0.0; 7]);
+                            self.tangents.push([Vec3::ZERO; TANGENTS]);
+                            self.voxel_of.push(n as u32);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// The fraction of voxel `v` outside `scene`'s opaque spheres (4³
+    /// points; at least 1/64 so that a voxel the hair reaches keeps a
+    /// volume).
+    fn free_fraction(&self, scene: &Scene, v: usize) -> f32 {
+        let d = self.dims;
+        let corner = self.origin
+            + Vec3::new((v % d[0]) as f32, ((v / d[0]) % d[1]) as f32, (v / (d[0] * d[1])) as f32)
+                * self.voxel;
+        let mut free = 0;
+        for s in 0..64 {
+            let p = corner
+                + Vec3::new((s % 4) as f32 + 0.5, ((s / 4) % 4) as f32 + 0.5, (s / 16) as f32 + 0.5)
+                    * (0.25 * self.voxel);
+            if !scene
+                .spheres
+                .iter()
+                .any(|sp| (p - sp.center).length_squared() < sp.radius * sp.radius)
+            {
+                free += 1;
+            }
+        }
+        free.max(1) as f32 / 64.0
+    }
+
+    fn add_strands(&mut self, st: &Strands, total: &mut Vec<[f32; TANGENTS]>, piece: &mut u64) {
+        for s in 0..st.strand_count() {
+            let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+            for i in i0..i1.saturating_sub(1) {
+                let (a, b) = (st.points[i], st.points[i + 1]);
+                let r = 0.5 * (st.radii[i] + st.radii[i + 1]);
+                let d = b - a;
+                let len = d.length();
+                if !(len > 0.0 && len.is_finite() && r.is_finite() && r > 0.0) {
+                    continue;
+                }
+                let t = d / len;
+                let n = (len / (0.5 * self.voxel)).ceil().clamp(1.0, 4096.0) as usize;
+                let l = len / n as f32;
+                for k in 0..n {
+                    let p = a + d * ((k as f32 + 0.5) / n as f32);
+                    *piece += 1;
+                    self.add_piece(p, t, 2.0 * r * l, total, *piece);
+                }
+            }
+        }
+    }
+
+    fn add_piece(&mut self, p: Vec3, t: Vec3, w: f32, total: &mut Vec<[f32; TANGENTS]>, id: u64) {
+        let Some(v) = self.voxel_at(p) else {
+            return;
+        };
+        let mut s = self.slot[v];
+        if s == u32::MAX {
+            s = self.moments.len() as u32;
+            self.slot[v] = s;
+            self.moments.push([0.0; 7]);
+            self.tangents.push([Vec3::ZERO; TANGENTS]);
+            total.push([0.0; TANGENTS]);
+            self.voxel_of.push(v as u32);
+        }
+        let s = s as usize;
+        let m = &mut self.moments[s];
+        m[0] += w;
+        m[1] += w * t.x * t.x;
+        m[2] += w * t.y * t.y;
+        m[3] += w * t.z * t.z;
+        m[4] += w * t.x * t.y;
+        m[5] += w * t.x * t.z;
+        m[6] += w * t.y * t.z;
+        // Each of the TANGENTS reservoirs keeps one piece, drawn in
+        // proportion to its weight (weighted reservoir sampling).
+        let h = mix64(id);
+        for (j, (tw, tt)) in total[s].iter_mut().zip(&mut self.tangents[s]).enumerate() {
+            *tw += w;
+            let u = ((mix64(h ^ (j as u64 + 1)) >> 40) as f32 + 0.5) * (1.0 / (1u64 << 24) as f32);
+            if u * *tw < w {
+                *tt = t;
+            }
+        }
+    }
+
+    /// Dense index of the voxel holding `p`.
+    #[inline]
+    pub fn voxel_at(&self, p: Vec3) -> Option<usize> {
+        let q = (p - self.origin) / self.voxel;
+        if !(q.min_element() >= 0.0) {
+            return None;
+        }
+        let (i, j, k) = (q.x as usize, q.y as usize, q.z as usize);
+        (i < self.dims[0] && j < self.dims[1] && k < self.dims[2])
+            .then(|| (k * self.dims[1] + j) * self.dims[0] + i)
+    }
+
+    /// Fibers crossed per unit length along unit `d` in slot `s`.
+    #[inline]
+    pub fn sigma(&self, s: usize, d: Vec3) -> f32 {
+        let m = &self.moments[s];
+        let q = d.x * d.x * m[1]
+            + d.y * d.y * m[2]
+            + d.z * d.z * m[3]
+            + 2.0 * (d.x * d.y * m[4] + d.x * d.z * m[5] + d.y * d.z * m[6]);
+        (m[0] * m[0] - m[0] * q).max(0.0).sqrt()
+    }
+
+    /// The tangent of the fiber a ray along `d` meets in slot `s`, chosen
+    /// by `u` among the kept tangents in proportion to `|t × d|`.
+    #[inline]
+    pub fn fiber_met(&self, s: usize, d: Vec3, u: f32) -> Vec3 {
+        let ts = &self.tangents[s];
+        let w: [f32; TANGENTS] = std::array::from_fn(|j| ts[j].cross(d).length());
+        let sum: f32 = w.iter().sum();
+        if sum <= 0.0 {
+            return ts[0];
+        }
+        let mut x = u * sum;
+        for j in 0..TANGENTS {
+            if x < w[j] {
+                return ts[j];
+            }
+            x -= w[j];
+        }
+        ts[TANGENTS - 1]
+    }
+
+    /// Scales the fiber cross-section everywhere by `k` (calibration).
+    pub fn scale(&mut self, k: f32) {
+        for m in &mut self.moments {
+            for x in m.iter_mut() {
+                *x *= k;
+            }
+        }
+    }
+
+    /// The expected fibers crossed from `o` along unit `d` to the grid's
+    /// edge (marched in quarter voxels).
+    pub fn optical_depth(&self, o: Vec3, d: Vec3) -> f32 {
+        let step = 0.25 * self.voxel;
+        let mut tau = 0.0;
+        let mut p = o + d * (0.5 * step);
+        let limit = 4 * (self.dims[0] + self.dims[1] + self.dims[2]);
+        for _ in 0..limit {
+            let Some(v) = self.voxel_at(p) else { break };
+            let s = self.slot[v];
+            if s != u32::MAX {
+                tau += self.sigma(s as usize, d) * step;
+            }
+            p += d * step;
+        }
+        tau
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.slot.len() * 4 + self.moments.len() * (28 + TANGENTS * 12 + 4)
+    }
+}

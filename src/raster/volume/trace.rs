@@ -1,0 +1,336 @@
+//! Particle tracing through the fiber medium: photons leave the lights,
+//! fly by the medium's direction-dependent extinction (regular tracking
+//! voxel by voxel), scatter off the fiber they meet by the material's own
+//! scattering, reflect off opaque spheres by their albedo, and after their
+//! first scattering deposit their track length per voxel and direction bin.
+
+use super::bins::Bins;
+use super::medium::{mix64, Medium};
+use crate::fiber::chiang::ChiangHair;
+use crate::fiber::karis::{KarisHair, Transmittance};
+use crate::raster::scene::{Light, Sphere};
+use glam::Vec3;
+
+/// Scattering events a photon may take: a path of Mitsuba's `max_depth` 64
+/// has at most 63 scattering vertices, the last one the camera's.
+pub const MAX_EVENTS: u32 = 62;
+
+/// Events before Russian roulette starts.
+const ROULETTE_AFTER: u32 = 4;
+
+/// A random stream per photon (splitmix64), the same in every thread.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self(mix64(seed))
+    }
+    #[inline]
+    pub fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        ((mix64(self.0) >> 40) as f32 + 0.5) * (1.0 / (1u64 << 24) as f32)
+    }
+}
+
+/// How a fiber scatters a photon.
+pub enum Phase<'a> {
+    /// ChiangHair's importance sampling (the near field at a uniformly
+    /// random offset h across the fiber, as a ray meets it).
+    Chiang(&'a ChiangHair<f32>),
+    /// KarisHair: a uniformly random direction weighted by the model.
+    Karis(&'a KarisHair<f32>),
+}
+
+impl Phase<'_> {
+    /// A photon moving along `d` meets a fiber of tangent `t`: its new
+    /// direction and the factor its power takes (None: absorbed).
+    pub fn scatter(&self, d: Vec3, t: Vec3, rng: &mut Rng) -> Option<(Vec3, Vec3)> {
+        let wi = -d;
+        match self {
+            Phase::Chiang(m) => {
+                // the normal plane's direction of wi, and the normal that
+                // puts wi at offset h = sin γ
+                let along = wi - t * t.dot(wi);
+                let p = along.try_normalize().unwrap_or_else(|| t.any_orthonormal_vector());
+                let q = t.cross(p);
+                let h = 2.0 * rng.next() - 1.0;
+                let (sin_g, cos_g) = (h, (1.0 - h * h).max(0.0).sqrt());
+                let z = p * cos_g + q * sin_g;
+                let x = t.cross(z);
+                let local = [wi.dot(x), wi.dot(t), wi.dot(z)];
+                let (u1, u2, u3) = (rng.next(), rng.next(), rng.next());
+                let (wo, weight, pdf) = m.sample(&local, u1, [u2, u3]);
+                if !(pdf > 0.0) {
+                    return None;
+                }
+                let o = x * wo[0] + t * wo[1] + z * wo[2];
+                let w = Vec3::from(weight);
+                (w.is_finite() && o.is_finite()).then_some((o.normalize_or_zero(), w))
+            }
+            Phase::Karis(k) => {
+                // a uniform direction; the model read with the roles of
+                // light and view swapped, so that its cosine is the
+                // outgoing direction's (the photon's scattering density)
+                let z = 1.0 - 2.0 * rng.next();
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let a = std::f32::consts::TAU * rng.next();
+                let o = Vec3::new(r * a.cos(), r * a.sin(), z);
+                let f = k.eval(&o.to_array(), &wi.to_array(), &t.to_array(), &Transmittance::default());
+                let w = Vec3::from(f) * (4.0 * std::f32::consts::PI);
+                w.is_finite().then_some((o, w.max(Vec3::ZERO)))
+            }
+        }
+    }
+}
+
+/// A light as photons leave it: its power towards the hair's bounding
+/// sphere (centre `c`, radius `r`) and how a photon starts.
+pub struct Emitter {
+    light: Light,
+    /// Mean over RGB of the power, and the RGB power over that mean.
+    pub power: f32,
+    pub tint: Vec3,
+    c: Vec3,
+    r: f32,
+}
+
+impl Emitter {
+    pub fn new(light: &Light, c: Vec3, r: f32) -> Self {
+        let (p, _) = match *light {
+            Light::Directional { intensity, .. } => (intensity * std::f32::consts::PI * r * r, 0.0),
+            Light::Point {
+                position,
+                intensity,
+                ..
+            } => {
+                let d = (position - c).length();
+                let cos_a = if d > r { (1.0 - (r / d).powi(2)).max(0.0).sqrt() } else { -1.0 };
+                (intensity * std::f32::consts::TAU * (1.0 - cos_a), cos_a)
+            }
+        };
+        let power = (p.x + p.y + p.z) / 3.0;
+        let tint = if power > 0.0 { p / power } else { Vec3::ZERO };
+        Self {
+            light: light.clone(),
+            power: if power.is_finite() { power.max(0.0) } else { 0.0 },
+            tint,
+            c,
+            r,
+        }
+    }
+
+    /// A photon's start and direction from the unit square point `u` (the
+    /// disk facing a directional light, or the cone of a point light
+    /// towards the bounding sphere).
+    pub fn start(&self, u: [f32; 2]) -> (Vec3, Vec3) {
+        match self.light {
+            Light::Directional { direction, .. } => {
+                let d = -direction.normalize();
+                let (a, b) = d.any_orthonormal_pair();
+                let rad = self.r * u[0].sqrt();
+                let phi = std::f32::consts::TAU * u[1];
+                let o = self.c - d * (self.r * 1.01) + (a * phi.cos() + b * phi.sin()) * rad;
+                (o, d)
+            }
+            Light::Point { position, .. } => {
+                let to = self.c - position;
+                let dist = to.length();
+                let cos_a = if dist > self.r {
+                    (1.0 - (self.r / dist).powi(2)).max(0.0).sqrt()
+                } else {
+                    -1.0
+                };
+                let axis = if dist > 0.0 { to / dist } else { Vec3::Z };
+                let (a, b) = axis.any_orthonormal_pair();
+                let z = 1.0 - u[0] * (1.0 - cos_a);
+                let s = (1.0 - z * z).max(0.0).sqrt();
+                let phi = std::f32::consts::TAU * u[1];
+                (position, (axis * z + (a * phi.cos() + b * phi.sin()) * s).normalize())
+            }
+        }
+    }
+}
+
+/// Where deposits go: per occupied voxel and direction bin, the RGB sums
+/// and the sum of the directions weighted by their mean (the bin's mean
+/// direction), in fixed point (2^-32 units of a photon's power times a
+/// voxel's length), added atomically: integer sums (two's complement, wrapping)
+/// do not depend on the order, so the result is the same at every thread
+/// count.
+pub struct Tally<'a> {
+    pub sums: &'a [std::sync::atomic::AtomicU64],
+    pub bins: Bins,
+}
+
+/// Words per voxel and bin: RGB, then the weighted direction.
+pub const WORDS: usize = 6;
+
+pub const FIXED: f64 = 4_294_967_296.0;
+
+impl Tally<'_> {
+    #[inline]
+    fn add(&self, slot: usize, bin: usize, w: Vec3, d: Vec3) {
+        use std::sync::atomic::Ordering::Relaxed;
+        let base = (slot * self.bins.count() + bin) * WORDS;
+        for (c, x) in w.to_array().into_iter().enumerate() {
+            let q = (x as f64 * FIXED) as u64;
+            if q > 0 {
+                self.sums[base + c].fetch_add(q, Relaxed);
+            }
+        }
+        let mean = (w.x + w.y + w.z) as f64 / 3.0;
+        for (c, x) in d.to_array().into_iter().enumerate() {
+            let q = (x as f64 * mean * FIXED) as i64;
+            if q != 0 {
+                self.sums[base + 3 + c].fetch_add(q as u64, Relaxed);
+            }
+        }
+    }
+}
+
+/// The box of the medium: `[lo, hi]`.
+fn box_hit(m: &Medium, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
+    let lo = m.origin;
+    let hi = m.origin + Vec3::new(m.dims[0] as f32, m.dims[1] as f32, m.dims[2] as f32) * m.voxel;
+    let inv = d.recip();
+    let (a, b) = ((lo - o) * inv, (hi - o) * inv);
+    let t0 = a.min(b).max_element().max(0.0);
+    let t1 = a.max(b).min_element();
+    (t0 < t1 && t1.is_finite()).then_some((t0, t1))
+}
+
+/// The nearest sphere `o + t d` enters after `eps`, with its index.
+fn sphere_hit(spheres: &[Sphere], o: Vec3, d: Vec3) -> Option<(f32, usize)> {
+    let mut best: Option<(f32, usize)> = None;
+    for (i, s) in spheres.iter().enumerate() {
+        let oc = o - s.center;
+        let b = oc.dot(d);
+        let c = oc.length_squared() - s.radius * s.radius;
+        let disc = b * b - c;
+        if disc < 0.0 {
+            continue;
+        }
+        let sq = disc.sqrt();
+        let t = if -b - sq > 1e-6 { -b - sq } else { -b + sq };
+        if t > 1e-6 && best.is_none_or(|(bt, _)| t < bt) && c > 0.0 {
+            best = Some((t, i));
+        }
+    }
+    best
+}
+
+/// Traces one photon of power `w` (in units of the mean photon's power).
+pub fn trace(
+    m: &Medium,
+    phase: &Phase,
+    spheres: &[Sphere],
+    tally: &Tally,
+    mut o: Vec3,
+    mut d: Vec3,
+    mut w: Vec3,
+    rng: &mut Rng,
+) {
+    let mut events = 0u32;
+    let inv_voxel = 1.0 / m.voxel;
+    loop {
+        let sphere = sphere_hit(spheres, o, d);
+        let t_sphere = sphere.map_or(f32::INFINITY, |s| s.0);
+        // the flight: optical depth to the next collision
+        let mut tau = -(1.0 - rng.next()).ln();
+        let mut collided = None;
+        if let Some((t_in, t_out)) = box_hit(m, o, d) {
+            let t_end = t_out.min(t_sphere);
+            // regular tracking, voxel by voxel (Amanatides & Woo)
+            let p = (o + d * t_in - m.origin) * inv_voxel;
+            let dims = [m.dims[0] as i32, m.dims[1] as i32, m.dims[2] as i32];
+            let mut ijk = [0i32; 3];
+            let mut step = [0i32; 3];
+            let mut t_next = [f32::INFINITY; 3];
+            let mut t_delta = [f32::INFINITY; 3];
+            for a in 0..3 {
+                ijk[a] = (p[a].floor() as i32).clamp(0, dims[a] - 1);
+                if d[a] > 0.0 {
+                    step[a] = 1;
+                    t_delta[a] = m.voxel / d[a];
+                    t_next[a] = t_in + ((ijk[a] + 1) as f32 - p[a]) * m.voxel / d[a];
+                } else if d[a] < 0.0 {
+                    step[a] = -1;
+                    t_delta[a] = -m.voxel / d[a];
+                    t_next[a] = t_in + (ijk[a] as f32 - p[a]) * m.voxel / d[a];
+                }
+            }
+            let bin = tally.bins.of(d);
+            let mut t = t_in;
+            while t < t_end {
+                let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
+                    0
+                } else if t_next[1] <= t_next[2] {
+                    1
+                } else {
+                    2
+                };
+                let t1 = t_next[a].min(t_end);
+                let v = (ijk[2] as usize * m.dims[1] + ijk[1] as usize) * m.dims[0] + ijk[0] as usize;
+                let slot = m.slot[v];
+                if slot != u32::MAX {
+                    let s = slot as usize;
+                    let sigma = m.sigma(s, d);
+                    let len = (t1 - t).max(0.0);
+                    if sigma * len >= tau {
+                        let tc = t + tau / sigma;
+                        if events > 0 {
+                            tally.add(s, bin, w * ((tc - t) * inv_voxel), d);
+                        }
+                        collided = Some((tc, s));
+                        break;
+                    }
+                    tau -= sigma * len;
+                    if events > 0 {
+                        tally.add(s, bin, w * (len * inv_voxel), d);
+                    }
+                }
+                t = t1;
+                ijk[a] += step[a];
+                t_next[a] += t_delta[a];
+                if ijk[a] < 0 || ijk[a] >= dims[a] {
+                    break;
+                }
+            }
+        }
+        if events >= MAX_EVENTS {
+            return;
+        }
+        if let Some((tc, s)) = collided {
+            // a fiber
+            o += d * tc;
+            let t = m.fiber_met(s, d, rng.next());
+            let Some((dn, f)) = phase.scatter(d, t, rng) else {
+                return;
+            };
+            d = dn;
+            w *= f;
+        } else if let Some((ts, i)) = sphere {
+            // an opaque sphere: diffuse reflection by its albedo
+            let sp = &spheres[i];
+            o += d * ts;
+            let n = (o - sp.center).normalize();
+            o = sp.center + n * (sp.radius * (1.0 + 1e-5));
+            let (a, b) = n.any_orthonormal_pair();
+            let (u1, u2) = (rng.next(), rng.next());
+            let r = u1.sqrt();
+            let phi = std::f32::consts::TAU * u2;
+            d = (a * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt()).normalize();
+            w *= sp.albedo;
+        } else {
+            return;
+        }
+        events += 1;
+        if events > ROULETTE_AFTER {
+            let q = w.max_element().min(0.95);
+            if !(q > 0.0) || rng.next() >= q {
+                return;
+            }
+            w /= q;
+        }
+    }
+}
