@@ -439,22 +439,6 @@ impl<'a> Shader<'a> {
         f * e * vis
     }
 
-    /// The far-field response of a fiber with tangent `t`, seen from `v`, to
-    /// a directional light of unit irradiance from `l` (no shadow).
-    #[inline]
-    fn unit_response(&self, t: Vec3, v: Vec3, l: Vec3) -> Vec3 {
-        match &self.hair {
-            HairShading::Karis(k) => Vec3::from(k.eval(
-                &l.to_array(),
-                &v.to_array(),
-                &t.to_array(),
-                &Transmittance::default(),
-            )),
-            HairShading::ChiangFar(c) => chiang_far(c, t, v, l),
-            HairShading::DEon(_) => Vec3::ZERO,
-        }
-    }
-
     /// The far field dual scattering shades with (None: DEonHair).
     fn far_field(&self) -> Option<FarField<'_>> {
         match &self.hair {
@@ -512,9 +496,33 @@ impl<'a> Shader<'a> {
             out += bounce.radiance(far, dual, p, fiber.radius, t, v);
         }
         if let Some(vol) = &self.volume {
-            out += vol.radiance(p, |l| self.unit_response(t, v, l));
+            out += vol.radiance(p, t, v);
         }
         out
+    }
+}
+
+/// The far-field response of a fiber of `hair` with tangent `t`, seen
+/// from `v`, to a directional light of unit irradiance from `l` (no shadow;
+/// KarisHair without its own multiple-scattering term; DEonHair: 0).
+pub fn far_response(hair: &HairShading) -> impl Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync + '_ {
+    let karis = match hair {
+        HairShading::Karis(k) => {
+            let mut c = k.components();
+            c.ms = false;
+            Some(k.with_components(c))
+        }
+        _ => None,
+    };
+    move |t: Vec3, v: Vec3, l: Vec3| match (hair, &karis) {
+        (HairShading::Karis(_), Some(k)) => Vec3::from(k.eval(
+            &l.to_array(),
+            &v.to_array(),
+            &t.to_array(),
+            &Transmittance::default(),
+        )),
+        (HairShading::ChiangFar(c), _) => chiang_far(c, t, v, l),
+        _ => Vec3::ZERO,
     }
 }
 

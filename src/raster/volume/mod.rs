@@ -28,6 +28,7 @@
 
 pub mod bins;
 pub mod medium;
+pub mod response;
 pub mod trace;
 
 use crate::raster::env_light::EnvLights;
@@ -52,7 +53,8 @@ pub const BINS: (usize, usize) = (1, 16);
 /// The settings of the solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct VolumeSettings {
-    /// Voxels along the longest side of the hair's bounds.
+    /// Cells (of the light's tallies) along the longest side of the hair's
+    /// bounds; the medium has [`medium::FINE`] times as many voxels.
     pub resolution: usize,
     /// Photons traced in all (shared among the lights by power).
     pub photons: usize,
@@ -77,6 +79,8 @@ pub struct VolumeRadiance {
     /// Per occupied voxel and bin, the RGB fluence of scattered light and
     /// its mean propagation direction times its mean over RGB.
     fluence: Vec<[f32; 6]>,
+    /// The fiber's far-field response ([`response`]).
+    response: response::ResponseTable,
     /// Seconds the solve took.
     pub solve_seconds: f64,
     /// The medium's calibration against the strands.
@@ -86,9 +90,9 @@ pub struct VolumeRadiance {
 /// Bytes the solve of `scene` with `s` needs at most (the medium, the
 /// integer tallies and the fluence), before anything is allocated.
 pub fn bytes_estimate(scene: &Scene, s: &VolumeSettings) -> usize {
-    let medium = medium::bytes_estimate(scene, s.resolution);
-    let slots = medium / (28 + medium::TANGENTS * 12 + 4);
-    medium + slots * s.bins * s.bins * trace::WORDS * (8 + 4)
+    let medium = medium::bytes_estimate(scene, s.resolution * medium::FINE);
+    let cells = medium::cells_estimate(scene, s.resolution * medium::FINE);
+    medium + cells * s.bins * s.bins * trace::WORDS * (8 + 4)
 }
 
 impl VolumeRadiance {
@@ -101,7 +105,7 @@ impl VolumeRadiance {
         cancel: Option<&AtomicBool>,
     ) -> Option<Self> {
         let t0 = std::time::Instant::now();
-        let mut medium = Medium::new(scene, settings.resolution)?;
+        let mut medium = Medium::new(scene, settings.resolution * medium::FINE)?;
         // the medium's transmittance calibrated against the strands'
         let segments = crate::raster::setup::world_segments(&scene.strands);
         let calibration = match crate::raster::traced::SegmentGrid::new(&segments) {
@@ -122,7 +126,7 @@ impl VolumeRadiance {
             .collect();
         let emitters: Vec<Emitter> = lights.iter().map(|l| Emitter::new(l, c, r)).collect();
         let total: f64 = emitters.iter().map(|e| e.power as f64).sum();
-        let slots = medium.moments.len();
+        let slots = medium.cells.cell_of.len();
         let sums: Vec<AtomicU64> = (0..slots * bins.count() * trace::WORDS)
             .map(|_| AtomicU64::new(0))
             .collect();
@@ -135,12 +139,28 @@ impl VolumeRadiance {
                     Some(*a)
                 })
                 .collect();
-            let phase = match &scene.hair {
-                HairShading::ChiangFar(c) => Phase::Chiang(c.model()),
-                HairShading::Karis(k) => Phase::Karis(k),
-                HairShading::DEon(_) => return None,
+            // KarisHair's single scattering (its own multiple-scattering
+            // term is what the volume replaces)
+            let karis = match &scene.hair {
+                HairShading::Karis(k) => {
+                    let mut c = k.components();
+                    c.ms = false;
+                    Some(k.with_components(c))
+                }
+                _ => None,
+            };
+            let phase = match (&scene.hair, &karis) {
+                (HairShading::ChiangFar(c), _) => Phase::Chiang(c.model()),
+                (HairShading::Karis(_), Some(k)) => Phase::Karis(k),
+                _ => return None,
             };
             let tally = Tally { sums: &sums, bins };
+            let transport = trace::Transport {
+                medium: &medium,
+                phase: &phase,
+                spheres: &scene.spheres,
+                tally: &tally,
+            };
             let chunks = n.div_ceil(CHUNK);
             pool().install(|| {
                 (0..chunks).into_par_iter().for_each(|ci| {
@@ -150,7 +170,7 @@ impl VolumeRadiance {
                     for i in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
                         let mut rng = Rng::new(i as u64 ^ 0x5851_F42D_4C95_7F2D);
                         // emitter by power, start by the R2 sequence
-                        let x = rng.next() as f64;
+                        let x = rng.uniform() as f64;
                         let e = cdf.partition_point(|&a| a <= x).min(emitters.len() - 1);
                         let em = &emitters[e];
                         let g = 1.324_718;
@@ -161,7 +181,7 @@ impl VolumeRadiance {
                         let (o, d) = em.start(u);
                         // power / (pmf · n) = tint · total / n: the tint in
                         // units of the mean photon
-                        trace::trace(&medium, &phase, &scene.spheres, &tally, o, d, em.tint, &mut rng);
+                        trace::trace(&transport, trace::Photon { o, d, w: em.tint }, &mut rng);
                     }
                 });
             });
@@ -171,14 +191,14 @@ impl VolumeRadiance {
         }
         // fluence = (power per photon) Σ w ℓ / V, tallied as Σ w ℓ/voxel
         let per_photon = if n > 0 { total / n as f64 } else { 0.0 };
-        let scale = (per_photon / trace::FIXED / (medium.voxel as f64).powi(2)) as f32;
+        let scale = (per_photon / trace::FIXED / (medium.cells.size as f64).powi(2)) as f32;
         // per unit of the voxel's free volume
         let nb = bins.count();
         let fluence: Vec<[f32; 6]> = sums
             .chunks_exact(trace::WORDS)
             .enumerate()
             .map(|(i, c)| {
-                let s = scale / medium.free[i / nb];
+                let s = scale / medium.cells.free[i / nb];
                 std::array::from_fn(|k| {
                     let x = c[k].load(Ordering::Relaxed);
                     if k < 3 {
@@ -192,11 +212,12 @@ impl VolumeRadiance {
         // the tallies' noise filtered in space (measured on blond_back and
         // blond_env at 2^20 photons: relMSE 2.15e-2 -> 2.06e-2 and
         // 3.34e-3 -> 3.04e-3)
-        let fluence = smooth(&medium, &fluence, nb);
+        let fluence = smooth(&medium.cells, &fluence, nb);
         Some(Self {
             medium,
             bins,
             fluence,
+            response: response::ResponseTable::new(crate::raster::shade::far_response(&scene.hair)),
             calibration,
             solve_seconds: t0.elapsed().as_secs_f64(),
         })
@@ -204,21 +225,22 @@ impl VolumeRadiance {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.medium.bytes() + self.fluence.len() * 24
+        self.medium.bytes() + self.fluence.len() * 24 + self.response.bytes()
     }
 
     /// Occupied voxels.
     pub fn voxels(&self) -> usize {
-        self.medium.moments.len()
+        self.medium.cells.cell_of.len()
     }
 
-    /// The scattered light at `p` scattered once more towards the eye:
-    /// `Σ_b f(l_b) Φ_b(p)`, with `f(l)` the fiber's response to a
-    /// directional light of unit irradiance from `l`.
-    pub fn radiance(&self, p: Vec3, f: impl Fn(Vec3) -> Vec3) -> Vec3 {
-        let m = &self.medium;
+    /// The scattered light at `p` scattered once more towards the eye `v`
+    /// by a fiber of tangent `t`: `Σ_b f(t, v, l_b) Φ_b(p)`, with `f` the
+    /// fiber's response to a directional light of unit irradiance from
+    /// `l` (read from [`response`]).
+    pub fn radiance(&self, p: Vec3, t: Vec3, v: Vec3) -> Vec3 {
+        let m = &self.medium.cells;
         let nb = self.bins.count();
-        let q = (p - m.origin) / m.voxel - Vec3::splat(0.5);
+        let q = (p - m.origin) / m.size - Vec3::splat(0.5);
         let base = q.floor();
         let fr = q - base;
         let mut acc = [[0.0f32; 6]; 256];
@@ -227,16 +249,9 @@ impl VolumeRadiance {
         for corner in 0..8 {
             let (dx, dy, dz) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
             let (i, j, k) = (base.x as i64 + dx, base.y as i64 + dy, base.z as i64 + dz);
-            if i < 0
-                || j < 0
-                || k < 0
-                || i >= m.dims[0] as i64
-                || j >= m.dims[1] as i64
-                || k >= m.dims[2] as i64
-            {
+            let Some(v) = medium::dense_index(m.dims, i, j, k) else {
                 continue;
-            }
-            let v = (k as usize * m.dims[1] + j as usize) * m.dims[0] + i as usize;
+            };
             let s = m.slot[v];
             if s == u32::MAX {
                 continue;
@@ -258,12 +273,18 @@ impl VolumeRadiance {
         if wsum <= 0.0 {
             return Vec3::ZERO;
         }
+        let sv = t.dot(v).clamp(-1.0, 1.0);
+        let v_n = (v - t * sv).normalize_or_zero();
         let mut out = Vec3::ZERO;
         for a in acc.iter() {
             if a[0] + a[1] + a[2] > 0.0 {
                 // the light comes from against its mean propagation
                 let l = -Vec3::new(a[3], a[4], a[5]).normalize_or_zero();
-                out += f(l) * Vec3::new(a[0], a[1], a[2]);
+                let sl = t.dot(l).clamp(-1.0, 1.0);
+                let l_n = l - t * sl;
+                let len = l_n.length();
+                let cos_phi = if len > 0.0 { (v_n.dot(l_n) / len).clamp(-1.0, 1.0) } else { 1.0 };
+                out += self.response.eval(sv, sl, response::acos(cos_phi)) * Vec3::new(a[0], a[1], a[2]);
             }
         }
         out / wsum
@@ -292,12 +313,12 @@ fn calibration_rays(
             .into_par_iter()
             .map(|i| {
                 let mut rng = Rng::new(i as u64 ^ 0xC0FF_EE00);
-                let si = ((rng.next() as f64 * segments.len() as f64) as usize).min(segments.len() - 1);
+                let si = ((rng.uniform() as f64 * segments.len() as f64) as usize).min(segments.len() - 1);
                 let s = &segments[si];
-                let o = s.a + (s.b - s.a) * rng.next();
-                let z = 1.0 - 2.0 * rng.next();
+                let o = s.a + (s.b - s.a) * rng.uniform();
+                let z = 1.0 - 2.0 * rng.uniform();
                 let r = (1.0 - z * z).max(0.0).sqrt();
-                let a = std::f32::consts::TAU * rng.next();
+                let a = std::f32::consts::TAU * rng.uniform();
                 let d = Vec3::new(r * a.cos(), r * a.sin(), z);
                 let fiber = crate::raster::shade::Fiber {
                     radius: 0.5 * (s.ra + s.rb),
@@ -348,24 +369,22 @@ fn calibrate(rays: &[(f32, f32)]) -> Calibration {
 /// The fluence filtered over each voxel's 3×3×3 neighbourhood, over the
 /// voxels that have slots, weighted 1 (the voxel), 1/2 (its faces) and 1/4
 /// (edges and corners).
-fn smooth(m: &Medium, fluence: &[[f32; 6]], nb: usize) -> Vec<[f32; 6]> {
+fn smooth(m: &medium::Cells, fluence: &[[f32; 6]], nb: usize) -> Vec<[f32; 6]> {
     let d = m.dims;
     pool().install(|| {
-        (0..m.voxel_of.len())
+        (0..m.cell_of.len())
             .into_par_iter()
             .flat_map_iter(|s| {
-                let v = m.voxel_of[s] as usize;
+                let v = m.cell_of[s] as usize;
                 let (i, j, k) = ((v % d[0]) as i64, ((v / d[0]) % d[1]) as i64, (v / (d[0] * d[1])) as i64);
                 let mut acc = vec![[0.0f32; 6]; nb];
                 let mut wsum = 0.0;
                 for dk in -1i64..=1 {
                     for dj in -1i64..=1 {
                         for di in -1i64..=1 {
-                            let (a, b, c) = (i + di, j + dj, k + dk);
-                            if a < 0 || b < 0 || c < 0 || a >= d[0] as i64 || b >= d[1] as i64 || c >= d[2] as i64 {
+                            let Some(n) = medium::dense_index(d, i + di, j + dj, k + dk) else {
                                 continue;
-                            }
-                            let n = (c as usize * d[1] + b as usize) * d[0] + a as usize;
+                            };
                             let ns = m.slot[n];
                             if ns == u32::MAX {
                                 continue;
@@ -458,4 +477,26 @@ pub fn cached(
         c.remove(0);
     }
     Some((solved, false))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 1. Calibration recovers the scale of a medium whose optical depths
+    ///    are those of the strands times a known factor: with the strands'
+    ///    transmittance exp(−0.8 τ) per ray, k = 0.8.
+    #[test]
+    fn calibration_recovers_a_known_scale() {
+        let rays: Vec<(f32, f32)> = (0..1000)
+            .map(|i| {
+                let tau = 3.0 * i as f32 / 1000.0;
+                ((-0.8 * tau).exp(), tau)
+            })
+            .collect();
+        let c = calibrate(&rays);
+        assert!((c.k - 0.8).abs() < 1e-5, "{c:?}");
+        assert!((c.calibrated - c.strands).abs() < 1e-9);
+        assert!(c.medium < c.strands);
+    }
 }

@@ -26,7 +26,7 @@ impl Rng {
         Self(mix64(seed))
     }
     #[inline]
-    pub fn next(&mut self) -> f32 {
+    pub fn uniform(&mut self) -> f32 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         ((mix64(self.0) >> 40) as f32 + 0.5) * (1.0 / (1u64 << 24) as f32)
     }
@@ -53,12 +53,12 @@ impl Phase<'_> {
                 let along = wi - t * t.dot(wi);
                 let p = along.try_normalize().unwrap_or_else(|| t.any_orthonormal_vector());
                 let q = t.cross(p);
-                let h = 2.0 * rng.next() - 1.0;
+                let h = 2.0 * rng.uniform() - 1.0;
                 let (sin_g, cos_g) = (h, (1.0 - h * h).max(0.0).sqrt());
                 let z = p * cos_g + q * sin_g;
                 let x = t.cross(z);
                 let local = [wi.dot(x), wi.dot(t), wi.dot(z)];
-                let (u1, u2, u3) = (rng.next(), rng.next(), rng.next());
+                let (u1, u2, u3) = (rng.uniform(), rng.uniform(), rng.uniform());
                 let (wo, weight, pdf) = m.sample(&local, u1, [u2, u3]);
                 if !(pdf > 0.0) {
                     return None;
@@ -71,9 +71,9 @@ impl Phase<'_> {
                 // a uniform direction; the model read with the roles of
                 // light and view swapped, so that its cosine is the
                 // outgoing direction's (the photon's scattering density)
-                let z = 1.0 - 2.0 * rng.next();
+                let z = 1.0 - 2.0 * rng.uniform();
                 let r = (1.0 - z * z).max(0.0).sqrt();
-                let a = std::f32::consts::TAU * rng.next();
+                let a = std::f32::consts::TAU * rng.uniform();
                 let o = Vec3::new(r * a.cos(), r * a.sin(), z);
                 let f = k.eval(&o.to_array(), &wi.to_array(), &t.to_array(), &Transmittance::default());
                 let w = Vec3::from(f) * (4.0 * std::f32::consts::PI);
@@ -219,24 +219,35 @@ fn sphere_hit(spheres: &[Sphere], o: Vec3, d: Vec3) -> Option<(f32, usize)> {
     best
 }
 
-/// Traces one photon of power `w` (in units of the mean photon's power).
-pub fn trace(
-    m: &Medium,
-    phase: &Phase,
-    spheres: &[Sphere],
-    tally: &Tally,
-    mut o: Vec3,
-    mut d: Vec3,
-    mut w: Vec3,
-    rng: &mut Rng,
-) {
+/// A photon leaving its light: where from, which way, and its RGB power
+/// in units of the mean photon's.
+pub struct Photon {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub w: Vec3,
+}
+
+/// The medium and boundaries a photon flies through, and where its light
+/// is tallied.
+pub struct Transport<'a> {
+    pub medium: &'a Medium,
+    pub phase: &'a Phase<'a>,
+    pub spheres: &'a [Sphere],
+    pub tally: &'a Tally<'a>,
+}
+
+/// Traces one photon.
+pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
+    let (m, phase, spheres, tally) = (tr.medium, tr.phase, tr.spheres, tr.tally);
+    let Photon { mut o, mut d, mut w } = photon;
     let mut events = 0u32;
     let inv_voxel = 1.0 / m.voxel;
+    let inv_cell = 1.0 / m.cells.size;
     loop {
         let sphere = sphere_hit(spheres, o, d);
         let t_sphere = sphere.map_or(f32::INFINITY, |s| s.0);
         // the flight: optical depth to the next collision
-        let mut tau = -(1.0 - rng.next()).ln();
+        let mut tau = -(1.0 - rng.uniform()).ln();
         let mut collided = None;
         if let Some((t_in, t_out)) = box_hit(m, o, d) {
             let t_end = t_out.min(t_sphere);
@@ -260,6 +271,14 @@ pub fn trace(
                 }
             }
             let bin = tally.bins.of(d);
+            // the track length in the current cell, added once the flight
+            // leaves it (a cell spans FINE³ voxels)
+            let (mut run_cell, mut run) = (u32::MAX, 0.0f32);
+            let flush = |cell: u32, len: f32| {
+                if events > 0 && cell != u32::MAX && len > 0.0 {
+                    tally.add(cell as usize, bin, w * (len * inv_cell), d);
+                }
+            };
             let mut t = t_in;
             while t < t_end {
                 let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
@@ -271,24 +290,25 @@ pub fn trace(
                 };
                 let t1 = t_next[a].min(t_end);
                 let v = (ijk[2] as usize * m.dims[1] + ijk[1] as usize) * m.dims[0] + ijk[0] as usize;
+                let len = (t1 - t).max(0.0);
+                let cell = m.cell_of[v];
+                if cell != run_cell {
+                    flush(run_cell, run);
+                    (run_cell, run) = (cell, 0.0);
+                }
                 let slot = m.slot[v];
                 if slot != u32::MAX {
                     let s = slot as usize;
                     let sigma = m.sigma(s, d);
-                    let len = (t1 - t).max(0.0);
                     if sigma * len >= tau {
                         let tc = t + tau / sigma;
-                        if events > 0 {
-                            tally.add(s, bin, w * ((tc - t) * inv_voxel), d);
-                        }
+                        run += tc - t;
                         collided = Some((tc, s));
                         break;
                     }
                     tau -= sigma * len;
-                    if events > 0 {
-                        tally.add(s, bin, w * (len * inv_voxel), d);
-                    }
                 }
+                run += len;
                 t = t1;
                 ijk[a] += step[a];
                 t_next[a] += t_delta[a];
@@ -296,6 +316,7 @@ pub fn trace(
                     break;
                 }
             }
+            flush(run_cell, run);
         }
         if events >= MAX_EVENTS {
             return;
@@ -303,7 +324,7 @@ pub fn trace(
         if let Some((tc, s)) = collided {
             // a fiber
             o += d * tc;
-            let t = m.fiber_met(s, d, rng.next());
+            let t = m.fiber_met(s, d, rng.uniform());
             let Some((dn, f)) = phase.scatter(d, t, rng) else {
                 return;
             };
@@ -316,7 +337,7 @@ pub fn trace(
             let n = (o - sp.center).normalize();
             o = sp.center + n * (sp.radius * (1.0 + 1e-5));
             let (a, b) = n.any_orthonormal_pair();
-            let (u1, u2) = (rng.next(), rng.next());
+            let (u1, u2) = (rng.uniform(), rng.uniform());
             let r = u1.sqrt();
             let phi = std::f32::consts::TAU * u2;
             d = (a * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt()).normalize();
@@ -327,7 +348,7 @@ pub fn trace(
         events += 1;
         if events > ROULETTE_AFTER {
             let q = w.max_element().min(0.95);
-            if !(q > 0.0) || rng.next() >= q {
+            if !(q > 0.0) || rng.uniform() >= q {
                 return;
             }
             w /= q;

@@ -1,0 +1,155 @@
+"""Multiple scattering through the hair volume (``multiple_scattering:
+"volume"``): against converged Mitsuba path tracing (tests/data/dense and
+tests/data/held_out, with their max_depth-2 renders for the multiple-
+scattering part alone), the white furnace, determinism over thread counts,
+reuse of the solve across views, and its errors. docs/volume.md has the
+full measurement (scripts/volume_compare.py)."""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import hairshade as hs
+
+DATA = pathlib.Path(__file__).parent / "data"
+DENSE = DATA / "dense"
+W, H = 320, 180
+
+
+def _small(material: dict | None = None, lights: list | None = None, strands: int = 1500) -> dict:
+    return {
+        "hairshade_scene": 1,
+        "camera": {"position": [0.25, 0.1, 2.3], "target": [0, -0.12, 0], "up": [0, 1, 0], "fov": 40,
+                   "resolution": [160, 90]},
+        "meshes": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.48, "albedo": [0.5, 0.4, 0.35]}],
+        "lights": lights or [{"type": "directional", "direction": [0.2, 0.4, -1.0], "intensity": [4, 4, 4]},
+                             {"type": "environment", "radiance": [0.2, 0.2, 0.25]}],
+        "hair": {"generate": {"kind": "head", "strands": strands, "segments": 12, "scalp_radius": 0.5,
+                              "length": 0.5, "radius": 0.0013, "seed": 7},
+                 "material": material or {"model": "chiang", "eumelanin": 0.1, "pheomelanin": 0.05}},
+        "render": {"multiple_scattering": {"volume": {"photons": 65536, "resolution": 24}}},
+    }
+
+
+def _without_settings(name: str, tmp_path) -> hs.Scene:
+    d = json.loads((DENSE / f"{name}.json").read_text())
+    d["render"] = {}
+    return hs.Scene.from_dict(d)
+
+
+def test_01_same_image_at_every_thread_count(tmp_path):
+    """The tallies are integer sums, so neither the solve nor the image
+    depends on the order photons finish in: one thread gives the image of
+    two, bit for bit."""
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(_small()))
+    out = tmp_path / "one.npy"
+    code = f"import numpy as np, hairshade as hs; np.save({str(out)!r}, hs.render(hs.Scene.load({str(path)!r})))"
+    a = hs.render(hs.Scene.load(str(path)))
+    subprocess.run([sys.executable, "-c", code], check=True, env=dict(os.environ, RAYON_NUM_THREADS="1"))
+    np.testing.assert_array_equal(np.load(out), a)
+    assert np.isfinite(a).all() and a.min() >= 0
+
+
+def test_02_a_new_view_reuses_the_solve_and_a_new_light_does_not():
+    sc = hs.Scene.from_dict(_small())
+    _, first = hs.render(sc, return_stats=True)
+    sc.camera = dict(sc.camera, position=[1.5, 0.3, 1.8])
+    _, moved = hs.render(sc, return_stats=True)
+    assert moved["volume_reused"] and moved["volume_ms"] == 0.0
+    assert moved["volume_voxels"] == first["volume_voxels"] > 0
+    d = _small()
+    d["lights"][0]["intensity"] = [5, 5, 5]
+    _, relit = hs.render(hs.Scene.from_dict(d), return_stats=True)
+    assert not relit["volume_reused"]
+
+
+def test_03_the_volume_adds_light_and_only_light():
+    """The volume holds light that scattered at least once: the render with
+    it is the render without it plus a non-negative term, everywhere."""
+    sc = hs.Scene.from_dict(_small(lights=[{"type": "directional", "direction": [0.2, 0.4, -1.0],
+                                            "intensity": [4, 4, 4]}]))
+    none = hs.render(sc, multiple_scattering="none")
+    vol = hs.render(sc)
+    assert (vol >= none - 1e-6).all()
+    # blond under a backlight: much of what is seen is multiple scattering
+    # (measured 1.42x on this 1500-strand head; the truth of the 10k-strand
+    # blond_back is 2.5x its single scattering)
+    assert vol.mean() > 1.3 * none.mean()
+
+
+def test_04_calibrated_medium_transmits_as_the_strands():
+    """The medium's cross-section is scaled so that its mean transmittance
+    over 16384 rays from the hair equals that of the same rays traced
+    through the strands (bisection to 2^-40 relative)."""
+    _, st = hs.render(hs.Scene.from_dict(_small()), return_stats=True)
+    strands, medium, calibrated = st["volume_transmittance"]
+    assert 0 < strands < 1 and 0 < medium < 1
+    assert abs(calibrated - strands) < 1e-6
+
+
+@pytest.mark.parametrize("settings, field", [
+    ({"volume": {"photons": 0}}, "photons"),
+    ({"volume": {"resolution": 4}}, "resolution"),
+    ({"volume": {"bins": 17}}, "bins"),
+    ({"volume": {"smoothing": 1}}, "smoothing"),
+])
+def test_05_bad_settings_name_the_field(settings, field):
+    with pytest.raises(hs.SceneError, match=f"multiple_scattering.volume.{field}"):
+        hs.render(hs.Scene.from_dict(_small()), multiple_scattering=settings)
+
+
+def test_06_deon_hair_takes_no_volume():
+    d = _small(material={"model": "deon", "base_color": [0.5, 0.4, 0.3]})
+    with pytest.raises(hs.SceneError, match="volume"):
+        hs.render(hs.Scene.from_dict(d))
+
+
+@pytest.mark.slow
+def test_07_white_furnace(tmp_path):
+    """White fibers (no absorption) under a white environment, no head: a
+    hair pixel is 1. Measured on this 10k-strand head (docs/volume.md):
+    mean over hair pixels 0.86 (dual scattering 0.75), short of the 2%
+    target: the environment's direct light is dimmed by the fiber-count
+    grid, the light the volume collides by the calibrated medium, and the
+    two disagree. Bound (a regression check, not the target): mean at least
+    0.83, at most 1.02; no pixel non-finite or negative."""
+    d = json.loads((DENSE / "blond_env.json").read_text())
+    d.update(meshes=[], lights=[{"type": "environment", "radiance": [1, 1, 1]}], render={})
+    d["hair"]["material"].update(eumelanin=0.0, pheomelanin=0.0)
+    img = hs.render(hs.Scene.from_dict(d), quality="accurate", multiple_scattering="volume")
+    d["hair"]["material"].update(eumelanin=8.0)
+    mask = hs.render(hs.Scene.from_dict(d), quality="accurate", multiple_scattering="none").mean(-1) < 0.3
+    assert np.isfinite(img).all() and img.min() >= 0
+    v = img.mean(-1)[mask]
+    assert mask.sum() > 5000
+    assert 0.83 <= v.mean() <= 1.02, v.mean()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["auburn_key", "blond_env"])
+def test_08_against_path_tracing(name, tmp_path):
+    """The accurate preset with volume scattering against the converged
+    reference (halves relMSE 2.4e-5 and 1.5e-4), and its multiple-scattering
+    part (render minus the same without multiple scattering) against the
+    truth's (the reference minus Mitsuba at max_depth 2). Measured
+    (docs/volume.md): auburn_key means 1.00/1.00/1.00, relMSE 6.9e-4, MS
+    part 0.97/0.96/0.95; blond_env 0.98/0.99/1.00, 3.0e-3, MS 0.90/0.92/0.95.
+    Bounds: means within 4%, MS part within 15%, relMSE at most 1.5x the
+    measured."""
+    ref = hs.read_exr(str(DENSE / f"{name}.exr"))
+    depth2 = hs.read_exr(str(DENSE / f"{name}_depth2.exr"))
+    sc = _without_settings(name, tmp_path)
+    img = hs.render(sc, quality="accurate", multiple_scattering="volume")
+    none = hs.render(sc, quality="accurate", multiple_scattering="none")
+    mean = lambda a: a.reshape(-1, 3).mean(0)  # noqa: E731
+    np.testing.assert_allclose(mean(img) / mean(ref), 1, atol=0.04)
+    np.testing.assert_allclose(mean(img - none) / mean(ref - depth2), 1, atol=0.15)
+    assert hs.rel_mse(img, ref) < {"auburn_key": 1.1e-3, "blond_env": 4.5e-3}[name]
