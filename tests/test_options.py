@@ -136,7 +136,8 @@ def test_05_presets_resolve_per_model_and_merge_by_method():
     chiang = hs.Scene.from_dict(_scene_dict("chiang"))
     karis = hs.Scene.from_dict(_scene_dict("karis"))
     deon = hs.Scene.from_dict(_scene_dict("deon"))
-    assert chiang.options()["multiple_scattering"] == "dual"  # balanced, the default
+    assert chiang.options()["multiple_scattering"] == "volume"  # balanced, the default
+    assert karis.options()["multiple_scattering"] == "dual"
     assert chiang.options(quality="fast")["multiple_scattering"] == "none"
     assert karis.options(quality="fast")["multiple_scattering"] == "karis"
     assert deon.options(quality="accurate")["multiple_scattering"] == "none"

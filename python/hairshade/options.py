@@ -149,9 +149,10 @@ class DualOptions(TypedDict, total=False):
 
 class VolumeOptions(TypedDict, total=False):
     resolution: Annotated[int, Native("volume_resolution"), Doc(
-        "voxels along the longest side of the hair's bounds in the transport grid")]
+        "cells along the longest side of the hair's bounds of the grid the light is tallied on (the "
+        "fiber medium has twice as many voxels a side)")]
     photons: Annotated[int, Native("volume_photons"), Doc(
-        "photons traced from the lights and the environment (shared by power)")]
+        "photons traced per light, the environment counted as one light")]
     bins: Annotated[int, Native("volume_bins"), Doc(
         "octahedral direction bins per side (bins² directions per voxel)")]
 
@@ -299,9 +300,13 @@ def _group_doc(group: str) -> str:
 # -- presets -------------------------------------------------------------------------
 
 #: The presets, chosen by measurement (docs/quality.md, `scripts/quality_table.py`).
-#: Per model where the model decides: DEonHair takes no dual scattering,
-#: KarisHair's own multiple-scattering term stands in for it where dual's
-#: cost is not wanted.
+#: Per model where the model decides: DEonHair takes no multiple
+#: scattering, KarisHair's own term stands in where the cost of the others is
+#: not wanted. ChiangHair takes the volume (docs/volume.md: its mean per
+#: channel within 6% of path tracing on eight of nine heads, where dual
+#: scattering leaves it 0.87-0.95); KarisHair keeps dual scattering (the
+#: volume with its lobes: the demo and card heads within 7%, but with more
+#: error per pixel than dual's).
 PRESETS: Dict[str, Dict[str, Any]] = {
     # interactive: MLAB, deep opacity maps, the model's own multiple scattering
     "fast": {
@@ -309,17 +314,18 @@ PRESETS: Dict[str, Dict[str, Any]] = {
         "shadows": {"opacity": {}},
         "multiple_scattering": {"karis": "karis", "chiang": "none", "deon": "none"},
     },
-    # the best error per second: 16 coverage samples, traced shadows, dual scattering
+    # the best error per second: 16 coverage samples, traced shadows, multiple scattering
+    # through the volume (ChiangHair) or dual scattering (KarisHair)
     "balanced": {
         "transparency": {"coverage": {"samples": 16}},
         "shadows": {"traced": {}},
-        "multiple_scattering": {"karis": "dual", "chiang": "dual", "deon": "none"},
+        "multiple_scattering": {"karis": "dual", "chiang": "volume", "deon": "none"},
     },
     # the closest: 64 coverage samples (the near field's noise falls with them)
     "accurate": {
         "transparency": {"coverage": {"samples": 64}},
         "shadows": {"traced": {}},
-        "multiple_scattering": {"karis": "dual", "chiang": "dual", "deon": "none"},
+        "multiple_scattering": {"karis": "dual", "chiang": "volume", "deon": "none"},
     },
 }
 DEFAULT_QUALITY = "balanced"

@@ -102,6 +102,15 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
         // Capsules and their cell lists.
         items.push(("traced segment grid", segments * 64));
     }
+    if m.volume {
+        // The medium, the light's integer tallies and its fluence, and the
+        // segment grid its calibration traces through.
+        let s = super::volume::VolumeSettings::of(opts);
+        items.push((
+            "volume scattering",
+            super::volume::bytes_estimate(scene, &s) as u64 + segments * 64,
+        ));
+    }
     MemoryEstimate { items }
 }
 

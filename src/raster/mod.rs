@@ -217,7 +217,7 @@ pub fn render_with_progress(
         opts,
     )
     .with_sphere_bounce(opts)
-    .with_volume(volume);
+    .with_volume(volume, &world, view.eye);
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();

@@ -254,9 +254,9 @@ pub struct RenderOptions {
     /// two-stream slab of [`crate::fiber::dual::two_stream`] (which needs
     /// the fiber count away from each light as well).
     pub dual_backscatter: Backscatter,
-    /// Multiple scattering through the volume ([`super::volume`]): voxels
-    /// along the hair's longest side, photons, and octahedral direction
-    /// bins per side.
+    /// Multiple scattering through the volume ([`super::volume`]): cells
+    /// along the hair's longest side, photons per light (the environment
+    /// counted as one), and octahedral direction bins per side.
     pub volume_resolution: usize,
     pub volume_photons: usize,
     pub volume_bins: usize,
@@ -314,7 +314,7 @@ impl Default for RenderOptions {
             dual_back_density: 1.0,
             dual_backscatter: Backscatter::Local,
             volume_resolution: 48,
-            volume_photons: 1 << 20,
+            volume_photons: 1 << 18,
             volume_bins: 8,
             sphere_bounce: true,
             near_field: true,

@@ -66,6 +66,37 @@ struct CullTally {
     max: f32,
 }
 
+/// The volume's multiple scattering as the shader reads it
+/// ([`super::volume`]). It varies over a cell of the volume's grid (and is
+/// filtered over three): on a strand it is read at both ends of each
+/// segment, once per render and from the eye (so the same whichever
+/// fragment asks first), and interpolated linearly along the segment.
+struct VolumeShading<'a> {
+    radiance: Arc<super::volume::VolumeRadiance>,
+    segments: &'a [super::setup::WorldSegment],
+    eye: Vec3,
+    /// Per world segment, the radiance at its ends.
+    ends: Vec<std::sync::OnceLock<Vec3>>,
+}
+
+impl VolumeShading<'_> {
+    /// The multiple scattering at `p` (tangent `t`, towards the eye `v`) of
+    /// `fiber`.
+    fn radiance(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
+        let Some(s) = self.segments.get(fiber.segment as usize).filter(|_| fiber.strand != NO_STRAND) else {
+            return self.radiance.radiance(p, t, v);
+        };
+        let d = s.b - s.a;
+        let tangent = d.normalize_or_zero();
+        let end = |k: usize, q: Vec3| {
+            *self.ends[2 * fiber.segment as usize + k]
+                .get_or_init(|| self.radiance.radiance(q, tangent, (self.eye - q).normalize_or_zero()))
+        };
+        let u = ((p - s.a).dot(d) / d.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+        end(0, s.a) * (1.0 - u) + end(1, s.b) * u
+    }
+}
+
 /// Per-point buffers of [`Shader::shade_serial`]: flat `(N, 3)` tangents,
 /// view and light directions and kernel output, and per light the
 /// visibility and irradiance.
@@ -102,7 +133,7 @@ pub struct Shader<'a> {
     /// Light the opaque spheres reflect into the hair (dual scattering).
     bounce: Option<super::bounce::SphereBounce>,
     /// Multiple scattering carried through the volume (`volume`).
-    volume: Option<Arc<super::volume::VolumeRadiance>>,
+    volume: Option<VolumeShading<'a>>,
     /// Coverage samples shade the lights' single scattering by the near
     /// field at each sample's offset across its fiber (see [`near`]).
     near: bool,
@@ -211,9 +242,21 @@ impl<'a> Shader<'a> {
     }
 
     /// With the multiple scattering of a volume solve added at every hair
-    /// point.
-    pub fn with_volume(mut self, volume: Option<Arc<super::volume::VolumeRadiance>>) -> Self {
-        self.volume = volume;
+    /// point: on strands read at the ends of each segment (`segments`, the
+    /// world segments the fibers index) as seen from `eye`, once per render,
+    /// and interpolated along it; on cards at the point.
+    pub fn with_volume(
+        mut self,
+        volume: Option<Arc<super::volume::VolumeRadiance>>,
+        segments: &'a [super::setup::WorldSegment],
+        eye: Vec3,
+    ) -> Self {
+        self.volume = volume.map(|radiance| VolumeShading {
+            radiance,
+            segments,
+            eye,
+            ends: (0..2 * segments.len()).map(|_| std::sync::OnceLock::new()).collect(),
+        });
         self
     }
 
@@ -496,7 +539,7 @@ impl<'a> Shader<'a> {
             out += bounce.radiance(far, dual, p, fiber.radius, t, v);
         }
         if let Some(vol) = &self.volume {
-            out += vol.radiance(p, t, v);
+            out += vol.radiance(p, t, v, fiber);
         }
         out
     }

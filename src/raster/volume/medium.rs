@@ -38,8 +38,9 @@ pub struct Medium {
     pub voxel_of: Vec<u32>,
     /// The grid light is tallied on.
     pub cells: Cells,
-    /// Dense voxel index -> slot of the cell holding it (`u32::MAX`: none).
-    pub cell_of: Vec<u32>,
+    /// Dense voxel index -> its slot and the slot of the cell holding it
+    /// (`u32::MAX`: none), side by side for the photons' walk.
+    pub slots: Vec<[u32; 2]>,
 }
 
 /// The grid the light is tallied on: [`FINE`] medium voxels a side per
@@ -121,7 +122,7 @@ pub fn bytes_estimate(scene: &Scene, resolution: usize) -> usize {
         .sum();
     let occupied = (pieces as usize).min(dense);
     let cells = dense.div_ceil(FINE * FINE * FINE);
-    dense * 8 + occupied * (28 + TANGENTS * 12 + 4) + cells * 12
+    dense * 12 + occupied * (28 + TANGENTS * 12 + 4) + cells * 12
 }
 
 /// Cells of a medium of `scene` at `resolution` (all of them: an upper
@@ -153,7 +154,7 @@ impl Medium {
                 cell_of: Vec::new(),
                 free: Vec::new(),
             },
-            cell_of: Vec::new(),
+            slots: Vec::new(),
         };
         // per slot: the reservoir's total weight
         let mut total: Vec<[f32; TANGENTS]> = Vec::new();
@@ -224,10 +225,10 @@ impl Medium {
                 free_fraction(scene, corner, c.size)
             })
             .collect();
-        self.cell_of = (0..d[0] * d[1] * d[2])
+        self.slots = (0..d[0] * d[1] * d[2])
             .map(|v| {
                 let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
-                c.slot[((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE]
+                [self.slot[v], c.slot[((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE]]
             })
             .collect();
     }
@@ -370,7 +371,7 @@ impl Medium {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.slot.len() * 8
+        self.slot.len() * 12
             + self.moments.len() * (28 + TANGENTS * 12 + 4)
             + self.cells.slot.len() * 4
             + self.cells.cell_of.len() * 8

@@ -291,12 +291,11 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
                 let t1 = t_next[a].min(t_end);
                 let v = (ijk[2] as usize * m.dims[1] + ijk[1] as usize) * m.dims[0] + ijk[0] as usize;
                 let len = (t1 - t).max(0.0);
-                let cell = m.cell_of[v];
+                let [slot, cell] = m.slots[v];
                 if cell != run_cell {
                     flush(run_cell, run);
                     (run_cell, run) = (cell, 0.0);
                 }
-                let slot = m.slot[v];
                 if slot != u32::MAX {
                     let s = slot as usize;
                     let sigma = m.sigma(s, d);
