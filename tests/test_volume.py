@@ -140,10 +140,12 @@ def test_08_against_path_tracing(name, tmp_path):
     reference (halves relMSE 2.4e-5 and 1.5e-4), and its multiple-scattering
     part (render minus the same without multiple scattering) against the
     truth's (the reference minus Mitsuba at max_depth 2). Measured
-    (docs/volume.md): auburn_key means 1.00/1.00/1.00, relMSE 6.9e-4, MS
-    part 0.97/0.96/0.95; blond_env 0.98/0.99/1.00, 3.0e-3, MS 0.90/0.92/0.95.
-    Bounds: means within 4%, MS part within 15%, relMSE at most 1.5x the
-    measured."""
+    (docs/volume.md): auburn_key means 0.967/0.980/0.990, relMSE 7.6e-4, MS
+    part 0.94/0.95/0.95; blond_env 0.980/0.989/0.997, 3.6e-3, MS
+    0.87/0.89/0.93 (dual scattering: auburn_key 0.905/0.913/0.954, MS
+    0.81/0.70/0.53). Bounds: means within 4%, MS part within 15%, relMSE at
+    most 1.45x the measured (the photons are the same in every run: the
+    margin covers other CPUs' rounding, not noise)."""
     ref = hs.read_exr(str(DENSE / f"{name}.exr"))
     depth2 = hs.read_exr(str(DENSE / f"{name}_depth2.exr"))
     sc = _without_settings(name, tmp_path)
@@ -152,4 +154,4 @@ def test_08_against_path_tracing(name, tmp_path):
     mean = lambda a: a.reshape(-1, 3).mean(0)  # noqa: E731
     np.testing.assert_allclose(mean(img) / mean(ref), 1, atol=0.04)
     np.testing.assert_allclose(mean(img - none) / mean(ref - depth2), 1, atol=0.15)
-    assert hs.rel_mse(img, ref) < {"auburn_key": 1.1e-3, "blond_env": 4.5e-3}[name]
+    assert hs.rel_mse(img, ref) < {"auburn_key": 1.1e-3, "blond_env": 5.2e-3}[name]
