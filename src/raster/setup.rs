@@ -81,6 +81,8 @@ pub struct WorldSegment {
     pub rb: f32,
     /// The strand it belongs to.
     pub strand: u32,
+    /// The index of its first vertex (`a`) in the strands' points.
+    pub vertex: u32,
 }
 
 /// A sphere bounding the whole scene: (centre, radius).
@@ -168,6 +170,7 @@ pub fn world_segments(st: &Strands) -> Vec<WorldSegment> {
                     ra: st.radii[i],
                     rb: st.radii[i + 1],
                     strand: s as u32,
+                    vertex: i as u32,
                 });
             }
         },

@@ -256,6 +256,7 @@ mod tests {
                     ra: 0.01,
                     rb: 0.01,
                     strand: i / 4,
+                    vertex: 0,
                 }
             })
             .collect();
@@ -310,6 +311,7 @@ mod tests {
             ra: 0.1,
             rb: 0.1,
             strand,
+            vertex: 0,
         };
         let own = Fiber {
             radius: 0.0,

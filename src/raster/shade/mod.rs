@@ -68,15 +68,17 @@ struct CullTally {
 
 /// The volume's multiple scattering as the shader reads it
 /// ([`super::volume`]). It varies over a cell of the volume's grid (and is
-/// filtered over three): on a strand it is read at both ends of each
-/// segment, once per render and from the eye (so the same whichever
-/// fragment asks first), and interpolated linearly along the segment.
+/// filtered over three): on a strand it is read at its vertices, once per
+/// render, with the vertex's tangent (along its two neighbours) and seen
+/// from the eye, so the same whichever fragment asks first, and
+/// interpolated linearly along each segment.
 struct VolumeShading<'a> {
     radiance: Arc<super::volume::VolumeRadiance>,
     segments: &'a [super::setup::WorldSegment],
+    strands: &'a super::scene::Strands,
     eye: Vec3,
-    /// Per world segment, the radiance at its ends.
-    ends: Vec<std::sync::OnceLock<Vec3>>,
+    /// Per strand vertex, the radiance there.
+    vertices: Vec<std::sync::OnceLock<Vec3>>,
 }
 
 impl VolumeShading<'_> {
@@ -87,13 +89,21 @@ impl VolumeShading<'_> {
             return self.radiance.radiance(p, t, v);
         };
         let d = s.b - s.a;
-        let tangent = d.normalize_or_zero();
-        let end = |k: usize, q: Vec3| {
-            *self.ends[2 * fiber.segment as usize + k]
-                .get_or_init(|| self.radiance.radiance(q, tangent, (self.eye - q).normalize_or_zero()))
+        let (first, last) = (
+            self.strands.offsets[s.strand as usize] as usize,
+            self.strands.offsets[s.strand as usize + 1] as usize - 1,
+        );
+        let at = |i: usize| {
+            *self.vertices[i].get_or_init(|| {
+                let pts = &self.strands.points;
+                let q = pts[i];
+                let t = (pts[(i + 1).min(last)] - pts[i.saturating_sub(1).max(first)]).normalize_or_zero();
+                self.radiance.radiance(q, t, (self.eye - q).normalize_or_zero())
+            })
         };
+        let i = s.vertex as usize;
         let u = ((p - s.a).dot(d) / d.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
-        end(0, s.a) * (1.0 - u) + end(1, s.b) * u
+        at(i) * (1.0 - u) + at(i + 1) * u
     }
 }
 
@@ -242,20 +252,23 @@ impl<'a> Shader<'a> {
     }
 
     /// With the multiple scattering of a volume solve added at every hair
-    /// point: on strands read at the ends of each segment (`segments`, the
-    /// world segments the fibers index) as seen from `eye`, once per render,
-    /// and interpolated along it; on cards at the point.
+    /// point: on strands read at their vertices as seen from `eye`, once
+    /// per render, and interpolated along each segment (`segments`, the
+    /// world segments of the scene's strands, which the fibers index); on
+    /// cards at the point.
     pub fn with_volume(
         mut self,
         volume: Option<Arc<super::volume::VolumeRadiance>>,
         segments: &'a [super::setup::WorldSegment],
         eye: Vec3,
     ) -> Self {
+        let strands = &self.scene.strands;
         self.volume = volume.map(|radiance| VolumeShading {
             radiance,
             segments,
+            strands,
             eye,
-            ends: (0..2 * segments.len()).map(|_| std::sync::OnceLock::new()).collect(),
+            vertices: (0..strands.points.len()).map(|_| std::sync::OnceLock::new()).collect(),
         });
         self
     }
