@@ -155,3 +155,20 @@ def test_08_against_path_tracing(name, tmp_path):
     np.testing.assert_allclose(mean(img) / mean(ref), 1, atol=0.04)
     np.testing.assert_allclose(mean(img - none) / mean(ref - depth2), 1, atol=0.15)
     assert hs.rel_mse(img, ref) < {"auburn_key": 1.1e-3, "blond_env": 5.2e-3}[name]
+
+
+def test_09_the_solve_stops_on_ctrl_c():
+    """2^26 photons (about a minute of tracing on 2 cores): Ctrl-C raises
+    KeyboardInterrupt within 3 s (the solve looks at the cancel flag
+    between chunks of 2048 photons, a few ms each; measured 0.1 s)."""
+    from test_hostile import _interrupt_after
+
+    d = _small()
+    d["render"] = {"multiple_scattering": {"volume": {"photons": 1 << 26}}}
+    dt, err = _interrupt_after(f"""
+        s = hs.Scene.from_dict({d!r})
+        print("go", flush=True)
+        hs.render(s, progress=False)
+        print("finished")""", delay=1.5)
+    assert "KeyboardInterrupt" in err, err[-2000:]
+    assert dt < 3.0, f"{dt:.2f} s from Ctrl-C to exit"
