@@ -172,3 +172,26 @@ def test_09_the_solve_stops_on_ctrl_c():
         print("finished")""", delay=1.5)
     assert "KeyboardInterrupt" in err, err[-2000:]
     assert dt < 3.0, f"{dt:.2f} s from Ctrl-C to exit"
+
+
+def test_10_progress_counts_the_solve():
+    """The render's progress holds the solve (100 steps, counted per chunk
+    of photons) besides the tiles, ends at its total, and a reused solve
+    counts its steps at once."""
+    from hairshade import _native
+    from hairshade.render import _native_scene
+
+    sc = hs.Scene.from_dict(_small())
+    sc.render = {"multiple_scattering": {"volume": {"photons": 65537}}}  # a solve of its own
+    calls: list = []
+    for _ in range(2):
+        calls.clear()
+        _native.render(_native_scene(sc, dict(sc.camera)), sc.options(), lambda d, t: calls.append((d, t)))
+        done, total = calls[-1]
+        assert done == total
+        assert total > 100
+    none = hs.Scene.from_dict(_small())
+    none.render = {"multiple_scattering": "none"}
+    calls.clear()
+    _native.render(_native_scene(none, dict(none.camera)), none.options(), lambda d, t: calls.append((d, t)))
+    assert calls[-1][1] == total - 100

@@ -437,7 +437,7 @@ pub fn render<'py>(
             memory.largest().1
         )));
     }
-    let total = crate::raster::tile_count(&scene);
+    let total = crate::raster::progress_total(&scene, &opts);
     let (done, cancel) = (AtomicUsize::new(0), AtomicBool::new(false));
     let result = run_polling(
         py,

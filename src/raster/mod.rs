@@ -126,13 +126,21 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> (Image, RenderStats) {
     render_with_progress(scene, opts, &done, &cancel).expect("not cancelled")
 }
 
-/// Number of tiles a render of `scene` processes (the progress total).
+/// Number of tiles a render of `scene` processes.
 pub fn tile_count(scene: &Scene) -> usize {
     TileGrid::new(scene.camera.width, scene.camera.height).count()
 }
 
-/// [`render`], counting finished tiles in `done` and stopping early (None)
-/// once `cancel` is set.
+/// The progress total of a render of `scene` with `opts`: its tiles, and
+/// [`volume::PROGRESS_STEPS`] for the volume's solve when it has one (a
+/// reused solve counts them at once).
+pub fn progress_total(scene: &Scene, opts: &RenderOptions) -> usize {
+    tile_count(scene) + if methods::Methods::new(scene, opts).volume { volume::PROGRESS_STEPS } else { 0 }
+}
+
+/// [`render`], counting its progress in `done` (finished tiles, and the
+/// volume's solve: [`progress_total`]) and stopping early (None) once
+/// `cancel` is set.
 pub fn render_with_progress(
     scene: &Scene,
     opts: &RenderOptions,
@@ -192,6 +200,7 @@ pub fn render_with_progress(
             env_lights.as_ref(),
             volume::VolumeSettings::of(opts),
             Some(cancel),
+            Some(done),
         );
         if cancel.load(Ordering::Relaxed) {
             return None;

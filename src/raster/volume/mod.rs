@@ -38,12 +38,15 @@ use bins::Bins;
 use glam::Vec3;
 use medium::Medium;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use trace::{Emitter, Phase, Rng, Tally};
 
 /// Photons per parallel chunk (the cancel flag is polled between chunks).
 const CHUNK: usize = 2048;
+
+/// Progress steps a solve counts in a render's progress ([`crate::raster::progress_total`]).
+pub const PROGRESS_STEPS: usize = 100;
 
 /// Inclusive ranges of the settings.
 pub const RESOLUTION: (usize, usize) = (8, 256);
@@ -105,6 +108,7 @@ impl VolumeRadiance {
         env: Option<&EnvLights>,
         settings: VolumeSettings,
         cancel: Option<&AtomicBool>,
+        progress: Option<&AtomicUsize>,
     ) -> Option<Self> {
         let t0 = std::time::Instant::now();
         let mut medium = Medium::new(scene, settings.resolution * medium::FINE)?;
@@ -170,6 +174,11 @@ impl VolumeRadiance {
                 (0..chunks).into_par_iter().for_each(|ci| {
                     if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                         return;
+                    }
+                    if let Some(p) = progress {
+                        // chunk ci's share of the steps (they sum to all of them)
+                        let share = |c: usize| c * PROGRESS_STEPS / chunks;
+                        p.fetch_add(share(ci + 1) - share(ci), Ordering::Relaxed);
                     }
                     for i in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
                         let mut rng = Rng::new(i as u64 ^ 0x5851_F42D_4C95_7F2D);
@@ -464,6 +473,7 @@ pub fn cached(
     env: Option<&EnvLights>,
     settings: VolumeSettings,
     cancel: Option<&AtomicBool>,
+    progress: Option<&AtomicUsize>,
 ) -> Option<(Arc<VolumeRadiance>, bool)> {
     let k = key(scene, env, &settings);
     {
@@ -472,10 +482,20 @@ pub fn cached(
             let e = c.remove(i);
             let r = e.1.clone();
             c.push(e);
+            if let Some(p) = progress {
+                p.fetch_add(PROGRESS_STEPS, Ordering::Relaxed);
+            }
             return Some((r, true));
         }
     }
-    let solved = Arc::new(VolumeRadiance::solve(scene, env, settings, cancel)?);
+    // a solve that traces nothing (no light, no photons) counts its steps at once
+    let before = progress.map(|p| p.load(Ordering::Relaxed));
+    let solved = VolumeRadiance::solve(scene, env, settings, cancel, progress);
+    if let (Some(p), Some(b)) = (progress, before) {
+        let counted = p.load(Ordering::Relaxed) - b;
+        p.fetch_add(PROGRESS_STEPS.saturating_sub(counted), Ordering::Relaxed);
+    }
+    let solved = Arc::new(solved?);
     let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
     c.push((k, solved.clone()));
     while c.len() > CACHE_SOLVES {
