@@ -75,8 +75,9 @@ def render(
     "auto"``, ...) are translated with a ``DeprecationWarning``.
 
     ``progress``: a progress bar (tqdm's when installed; default: where it
-    can be seen, a terminal or a notebook). Ctrl-C stops the render
-    (KeyboardInterrupt). Non-finite pixels (an overflow) are counted in the
+    can be seen, a terminal or a notebook) over the tiles, and over the
+    solve of multiple scattering through the volume when there is one (100
+    steps). Ctrl-C stops the render (KeyboardInterrupt). Non-finite pixels (an overflow) are counted in the
     stats as ``non_finite_pixels``."""
     return _render(scene, width, height, progress, return_stats, scene.options(**settings))
 
@@ -94,7 +95,7 @@ def _render(scene: Scene, width: int | None, height: int | None, progress: bool 
         w = int(width) if width is not None else max(1, round(int(height) * w0 / h0))
         h = int(height) if height is not None else max(1, round(int(width) * h0 / w0))
         cam["width"], cam["height"] = w, h
-    with Bar(0, "render", unit="tile", enabled=progress) as bar:
+    with Bar(0, "render", unit="step", enabled=progress) as bar:
         flat, stats = _native.render(_native_scene(scene, cam), options, bar.update_to if progress is not False else None)
     img = flat.reshape(cam["height"], cam["width"], 3)
     return (img, dict(stats)) if return_stats else img
