@@ -11,13 +11,22 @@
 pub fn pool() -> &'static rayon::ThreadPool {
     static POOL: std::sync::OnceLock<rayon::ThreadPool> = std::sync::OnceLock::new();
     static SINGLE: std::sync::OnceLock<rayon::ThreadPool> = std::sync::OnceLock::new();
-    let build = |n: usize| {
+    let try_build = |n: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .thread_name(|i| format!("hairshade-{i}"))
             .start_handler(|_| clear_upper_simd_state())
             .build()
-            .expect("cannot start the hairshade thread pool")
+    };
+    // A pool the system cannot start (threads refused: RAYON_NUM_THREADS
+    // far beyond the CPUs from a caller that skipped the bindings' check)
+    // falls back to one thread per CPU, then to one thread: work runs
+    // slower, it does not abort.
+    let build = |n: usize| {
+        try_build(n)
+            .or_else(|_| try_build(std::thread::available_parallelism().map_or(1, |c| c.get())))
+            .or_else(|_| try_build(1))
+            .expect("cannot start even a one-thread pool")
     };
     if SINGLE_THREADED.load(std::sync::atomic::Ordering::Relaxed) {
         SINGLE.get_or_init(|| build(1))

@@ -532,3 +532,14 @@ def test_12_cli_outputs_and_compare_guards(tmp_path):
     hs.write_exr(tmp_path / "dim.exr", np.full((4, 4, 3), 1e-10, np.float32))
     r = _cli("compare", "grey.exr", "dim.exr", cwd=tmp_path)
     assert r.returncode == 0 and "FLIP failed" in r.stderr, (r.stdout, r.stderr)
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "abc", "100000", "2.5", ""])
+def test_11b_thread_count_out_of_range_is_refused_at_import(value):
+    """RAYON_NUM_THREADS was ignored when 0, negative or not a number, and
+    100000 panicked when the pool started: each is refused at import with
+    the range."""
+    out = subprocess.run([sys.executable, "-c", "import hairshade"], capture_output=True, text=True, timeout=60,
+                         env=dict(os.environ, PYTHONPATH=PYTHON_DIR, RAYON_NUM_THREADS=value))
+    assert out.returncode != 0 and "RAYON_NUM_THREADS" in out.stderr and "[1, 1024]" in out.stderr, out.stderr
+    assert "PanicException" not in out.stderr
