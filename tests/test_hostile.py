@@ -543,3 +543,24 @@ def test_11b_thread_count_out_of_range_is_refused_at_import(value):
                          env=dict(os.environ, PYTHONPATH=PYTHON_DIR, RAYON_NUM_THREADS=value))
     assert out.returncode != 0 and "RAYON_NUM_THREADS" in out.stderr and "[1, 1024]" in out.stderr, out.stderr
     assert "PanicException" not in out.stderr
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
+def test_02b_a_fifo_is_refused_without_waiting_for_a_writer(tmp_path):
+    """A FIFO as the scene file, as hair.file and given to read_hair used to
+    block in open() before the regular-file check: each is refused at once."""
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    t = time.perf_counter()
+    with pytest.raises(hs.SceneError, match="not a regular file"):
+        hs.Scene.load(str(fifo))
+    d = {"hairshade_scene": 1, "camera": {"position": [0, 0, 3], "target": [0, 0, 0]}, "lights": [],
+         "hair": {"file": "pipe.hair"}}
+    os.mkfifo(tmp_path / "pipe.hair")
+    (tmp_path / "s.json").write_text(json.dumps(d))
+    with pytest.raises(hs.SceneError, match="hair.file.*not a regular file"):
+        hs.Scene.load(str(tmp_path / "s.json"))
+    from hairshade.hairfile import read_hair
+    with pytest.raises(ValueError, match="not a regular file"):
+        read_hair(tmp_path / "pipe.hair")
+    assert time.perf_counter() - t < 5

@@ -36,9 +36,11 @@ def read_hair(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarr
     """(points (M, 3) float32, radii (M,) float32, offsets (S + 1,) uint32)
     of a ``.hair`` file. Raises ValueError naming the file and the problem
     (bad magic, truncated arrays, counts that disagree, non-finite values)."""
+    from .scene import MAX_TEXT_BYTES, read_bytes
+
     path = os.fspath(path)
-    with open(path, "rb") as f:
-        return parse_hair(f.read(), path)
+    # a regular file within the scene format's size limit, opened without blocking
+    return parse_hair(read_bytes(path, MAX_TEXT_BYTES, lambda msg: ValueError(f"{path}: {msg}")), path)
 
 
 def parse_hair(data: bytes, path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -236,9 +236,12 @@ def show(line: str | bytes, limit: int = 80) -> str:
 
 def read_bytes(path: str, limit: int, error: Any) -> bytes:
     """The content of the regular file ``path`` (at most ``limit`` bytes);
-    ``error(message)`` builds the exception raised otherwise."""
+    ``error(message)`` builds the exception raised otherwise. Opened without
+    blocking (a FIFO or a device would otherwise wait for a writer before
+    the check that refuses it)."""
     try:
-        with open(path, "rb") as f:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+        with os.fdopen(fd, "rb") as f:
             st = os.fstat(f.fileno())
             if not stat.S_ISREG(st.st_mode):
                 raise error("not a regular file")
