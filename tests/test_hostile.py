@@ -564,3 +564,26 @@ def test_02b_a_fifo_is_refused_without_waiting_for_a_writer(tmp_path):
     with pytest.raises(ValueError, match="not a regular file"):
         read_hair(tmp_path / "pipe.hair")
     assert time.perf_counter() - t < 5
+
+
+def test_05b_arrays_and_hair_files_take_the_scene_formats_bounds(tmp_path):
+    """from_arrays and .hair files skipped the scene format's 1e18 bound: a
+    radius of 1e300 became inf in float32 and the shadow-map build never
+    ended. Both are refused, naming the value."""
+    with pytest.raises(hs.SceneError, match=r"radii\[0\]: must be at most 1e\+18"):
+        hs.Scene.from_arrays(np.array([[0, 0, 0], [0, 1, 0.0]]), 1e300, [0, 2])
+    with pytest.raises(hs.SceneError, match=r"points\[1\]: must be at most 1e\+18"):
+        hs.Scene.from_arrays(np.array([[0, 0, 0], [0, 1e19, 0.0]]), 0.01, [0, 2])
+    from hairshade.hairfile import HEADER, POINTS, SEGMENTS, THICKNESS
+    h = np.zeros(1, HEADER)
+    h["magic"] = b"HAIR"
+    h["strands"], h["points"] = 1, 2
+    h["flags"] = SEGMENTS | POINTS | THICKNESS
+    body = np.array([1], "<u2").tobytes() + np.array([0, 0, 0, 0, 3e38, 0], "<f4").tobytes()
+    body += np.array([0.01, 0.01], "<f4").tobytes()
+    (tmp_path / "big.hair").write_bytes(h.tobytes() + body)
+    d = {"hairshade_scene": 1, "camera": {"position": [0, 0, 3], "target": [0, 0, 0]}, "lights": [],
+         "hair": {"file": "big.hair"}}
+    (tmp_path / "s.json").write_text(json.dumps(d))
+    with pytest.raises(hs.SceneError, match=r"hair.file.*point\[1\]: must be at most 1e\+18"):
+        hs.Scene.load(str(tmp_path / "s.json"))

@@ -361,7 +361,26 @@ def _strand_arrays(points: npt.ArrayLike, radii: npt.ArrayLike, offsets: npt.Arr
     bad = np.flatnonzero(~(np.isfinite(r) & (r >= 0)))
     if len(bad):
         raise SceneError(f"radii[{bad[0]}]: must be finite and >= 0, got {r[bad[0]]}")
+    msg = _magnitude_error(p, r, "points", "radii")
+    if msg:
+        raise SceneError(msg)
     return p, r, o
+
+
+def _magnitude_error(p: np.ndarray, r: np.ndarray, points: str, radii: str) -> str | None:
+    """The scene format's bound on every number (``MAX_MAGNITUDE``: the
+    renderer computes in float32) for strand points and radii from arrays
+    and binary files, as for those of a scene file: the first value beyond
+    it, named, or None."""
+    bad = np.flatnonzero(~(np.abs(p) <= MAX_MAGNITUDE).all(axis=1))
+    if len(bad):
+        return (f"{points}[{bad[0]}]: must be at most {MAX_MAGNITUDE:g} in magnitude (the renderer computes "
+                f"in float32), got {p[bad[0]].tolist()}")
+    bad = np.flatnonzero(~(np.abs(r) <= MAX_MAGNITUDE))
+    if len(bad):
+        return (f"{radii}[{bad[0]}]: must be at most {MAX_MAGNITUDE:g} in magnitude (the renderer computes "
+                f"in float32), got {r[bad[0]]:g}")
+    return None
 
 
 def _parse(d: Any, base_dir: str, source: str,
@@ -647,6 +666,9 @@ def _read_hair_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarr
         p, r, o = parse_hair(data, path)
     except ValueError as e:
         c.fail("hair.file", str(e))
+    msg = _magnitude_error(p, r, f"{path}: point", f"{path}: radius")
+    if msg:
+        c.fail("hair.file", msg)
     return np.split(p.astype(np.float64), o[1:-1]), np.split(r.astype(np.float64), o[1:-1])
 
 
