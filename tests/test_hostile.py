@@ -587,3 +587,15 @@ def test_05b_arrays_and_hair_files_take_the_scene_formats_bounds(tmp_path):
     (tmp_path / "s.json").write_text(json.dumps(d))
     with pytest.raises(hs.SceneError, match=r"hair.file.*point\[1\]: must be at most 1e\+18"):
         hs.Scene.load(str(tmp_path / "s.json"))
+
+
+@pytest.mark.parametrize("table", [(2**40, 2, 1.0), (2**62, 2**62, 1.0), (1, 100, 3.0), (48, 100, float("nan")),
+                                   (1024, 8192, 3.0)])
+def test_03b_far_field_table_sizes_are_bounded(table):
+    """A table size given to eval_far was never checked: 2^40 nodes aborted
+    the process (an allocation of 44 TB) and 2^62 panicked with a capacity
+    overflow. It is refused before anything is allocated, naming `table`
+    and its ranges."""
+    a = np.array([0.3, 0.2, 0.9])
+    with pytest.raises(ValueError, match=r"table: expected \(cos_theta nodes in \[2, 1024\]"):
+        hs.ChiangHair()._native.eval_far(a, a, fast=True, table=table)

@@ -127,8 +127,24 @@ impl PyChiangHair {
         py: Python<'_>,
         fast: bool,
         size: Option<(usize, usize, f64)>,
-    ) -> Option<Arc<ChiangFarTable>> {
-        match (fast, size) {
+    ) -> PyResult<Option<Arc<ChiangFarTable>>> {
+        if let Some((cos_theta, phi, panel_width)) = size {
+            // bounds before anything is allocated: the default grid is 48 x
+            // 64..1536 nodes; TABLE_NODES nodes hold 75 MB
+            let (c, p) = (TABLE_COS_THETA, TABLE_PHI);
+            if !(c.0..=c.1).contains(&cos_theta)
+                || !(p.0..=p.1).contains(&phi)
+                || cos_theta * phi > TABLE_NODES
+                || !(panel_width.is_finite() && panel_width > 0.0 && panel_width <= 64.0)
+            {
+                return Err(PyValueError::new_err(format!(
+                    "table: expected (cos_theta nodes in [{}, {}], phi nodes in [{}, {}], at most {} \
+                     nodes in all, panel width in (0, 64]), got ({cos_theta}, {phi}, {panel_width})",
+                    c.0, c.1, p.0, p.1, TABLE_NODES
+                )));
+            }
+        }
+        Ok(match (fast, size) {
             (false, _) => None,
             (true, None) => Some(without_gil(py, || self.table())),
             (true, Some((cos_theta, phi, panel_width))) => Some(Arc::new(without_gil(py, || {
@@ -139,9 +155,14 @@ impl PyChiangHair {
                 };
                 ChiangFarTable::new(&self.m64, size)
             }))),
-        }
+        })
     }
 }
+
+/// Ranges of a far-field table's grid given to `eval_far` and its kin.
+const TABLE_COS_THETA: (usize, usize) = (2, 1024);
+const TABLE_PHI: (usize, usize) = (2, 8192);
+const TABLE_NODES: usize = 1 << 21;
 
 /// A direction in f32 (the tables' precision).
 fn to_f32<T: Float>(w: &[T; 3]) -> [f32; 3] {
@@ -208,7 +229,7 @@ impl PyChiangHair {
         fast: bool,
         table: Option<(usize, usize, f64)>,
     ) -> Out<'py> {
-        let t = self.table_for(py, fast, table);
+        let t = self.table_for(py, fast, table)?;
         self.per_pair(py, wi, wo, ChiangOp::EvalFar(t.as_deref()))
     }
 
@@ -223,7 +244,7 @@ impl PyChiangHair {
         fast: bool,
         table: Option<(usize, usize, f64)>,
     ) -> Out<'py> {
-        let t = self.table_for(py, fast, table);
+        let t = self.table_for(py, fast, table)?;
         self.per_pair(py, wi, wo, ChiangOp::EvalFarLobes(t.as_deref()))
     }
 
