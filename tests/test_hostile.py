@@ -599,3 +599,17 @@ def test_03b_far_field_table_sizes_are_bounded(table):
     a = np.array([0.3, 0.2, 0.9])
     with pytest.raises(ValueError, match=r"table: expected \(cos_theta nodes in \[2, 1024\]"):
         hs.ChiangHair()._native.eval_far(a, a, fast=True, table=table)
+
+
+def test_12b_nonsense_refused_before_work(tmp_path):
+    """write_exr / write_png of an image without pixels wrote a file the
+    readers refuse, and `bench --repeats 0` exited 0 with zeros: both are
+    refused naming what is wrong."""
+    for w in (hs.write_exr, hs.write_png):
+        with pytest.raises(ValueError, match="image: expected at least one pixel, got 5x0"):
+            w(str(tmp_path / "x.img"), np.zeros((5, 0, 3)))
+    assert not (tmp_path / "x.img").exists()
+    for arg in (["--repeats", "0"], ["--n", "-3"]):
+        out = subprocess.run([sys.executable, "-m", "hairshade", "bench", *arg], capture_output=True, text=True,
+                             timeout=60, env=dict(os.environ, PYTHONPATH=PYTHON_DIR))
+        assert out.returncode == 2 and arg[0] in out.stderr and "expected a whole number >= 1" in out.stderr, out.stderr

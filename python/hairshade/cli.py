@@ -173,6 +173,17 @@ def _finite(text: str) -> float:
     return x
 
 
+def _at_least_one(text: str) -> int:
+    """An argparse type: a whole number >= 1."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r:.40}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {n}")
+    return n
+
+
 def _lod(text: str) -> float | str:
     """--lod: 'auto' or a number (its range is checked by the renderer)."""
     if text == "auto":
@@ -364,8 +375,8 @@ def main(argv: list[str] | None = None) -> int:
     v.add_argument("--no-progress", action="store_true", help="no progress bar")
     v.set_defaults(func=cmd_validate)
     b = sub.add_parser("bench", help="run time against error beside Mitsuba (BSDFs; --render: renders)")
-    b.add_argument("--n", type=int, default=1 << 20, help="direction pairs (default 2^20)")
-    b.add_argument("--repeats", type=int, default=5)
+    b.add_argument("--n", type=_at_least_one, default=1 << 20, help="direction pairs (default 2^20)")
+    b.add_argument("--repeats", type=_at_least_one, default=5, help="timed runs of each row, the best kept")
     b.add_argument("--variant", default=None)
     b.add_argument("--csv", default=None, help="write the results as CSV")
     b.add_argument("--plot", default=None, help="write the run time vs error plot (PNG)")

@@ -16,6 +16,12 @@ impl RgbImage<'_> {
     fn checked(&self) -> PyResult<(usize, usize, &[f32])> {
         let (width, height) = (self.0, self.1);
         let d = slice(&self.2, "image")?;
+        if width == 0 || height == 0 {
+            // the readers refuse an image without pixels: do not write one
+            return Err(PyValueError::new_err(format!(
+                "image: expected at least one pixel, got {height}x{width}"
+            )));
+        }
         if Some(d.len()) != width.checked_mul(height).and_then(|n| n.checked_mul(3)) {
             return Err(PyValueError::new_err(format!(
                 "image: expected {height}x{width}x3 values, got {}",
