@@ -135,7 +135,12 @@ pub fn tile_count(scene: &Scene) -> usize {
 /// [`volume::PROGRESS_STEPS`] for the volume's solve when it has one (a
 /// reused solve counts them at once).
 pub fn progress_total(scene: &Scene, opts: &RenderOptions) -> usize {
-    tile_count(scene) + if methods::Methods::new(scene, opts).volume { volume::PROGRESS_STEPS } else { 0 }
+    tile_count(scene)
+        + if methods::Methods::new(scene, opts).volume {
+            volume::PROGRESS_STEPS
+        } else {
+            0
+        }
 }
 
 /// [`render`], counting its progress in `done` (finished tiles, and the

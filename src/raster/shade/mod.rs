@@ -85,7 +85,11 @@ impl VolumeShading<'_> {
     /// The multiple scattering at `p` (tangent `t`, towards the eye `v`) of
     /// `fiber`.
     fn radiance(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
-        let Some(s) = self.segments.get(fiber.segment as usize).filter(|_| fiber.strand != NO_STRAND) else {
+        let Some(s) = self
+            .segments
+            .get(fiber.segment as usize)
+            .filter(|_| fiber.strand != NO_STRAND)
+        else {
             return self.radiance.radiance(p, t, v);
         };
         let d = s.b - s.a;
@@ -97,8 +101,10 @@ impl VolumeShading<'_> {
             *self.vertices[i].get_or_init(|| {
                 let pts = &self.strands.points;
                 let q = pts[i];
-                let t = (pts[(i + 1).min(last)] - pts[i.saturating_sub(1).max(first)]).normalize_or_zero();
-                self.radiance.radiance(q, t, (self.eye - q).normalize_or_zero())
+                let t = (pts[(i + 1).min(last)] - pts[i.saturating_sub(1).max(first)])
+                    .normalize_or_zero();
+                self.radiance
+                    .radiance(q, t, (self.eye - q).normalize_or_zero())
             })
         };
         let i = s.vertex as usize;
@@ -268,7 +274,9 @@ impl<'a> Shader<'a> {
             segments,
             strands,
             eye,
-            vertices: (0..strands.points.len()).map(|_| std::sync::OnceLock::new()).collect(),
+            vertices: (0..strands.points.len())
+                .map(|_| std::sync::OnceLock::new())
+                .collect(),
         });
         self
     }

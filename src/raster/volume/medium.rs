@@ -72,8 +72,11 @@ fn free_fraction(scene: &Scene, corner: Vec3, size: f32) -> f32 {
     let mut free = 0;
     for s in 0..64 {
         let p = corner
-            + Vec3::new((s % 4) as f32 + 0.5, ((s / 4) % 4) as f32 + 0.5, (s / 16) as f32 + 0.5)
-                * (0.25 * size);
+            + Vec3::new(
+                (s % 4) as f32 + 0.5,
+                ((s / 4) % 4) as f32 + 0.5,
+                (s / 16) as f32 + 0.5,
+            ) * (0.25 * size);
         if !scene
             .spheres
             .iter()
@@ -168,7 +171,11 @@ impl Medium {
                 *x *= inv_v;
             }
         }
-        let free: Vec<f32> = m.voxel_of.iter().map(|&v| m.free_fraction(scene, v as usize)).collect();
+        let free: Vec<f32> = m
+            .voxel_of
+            .iter()
+            .map(|&v| m.free_fraction(scene, v as usize))
+            .collect();
         for (mo, &f) in m.moments.iter_mut().zip(&free) {
             for x in mo.iter_mut() {
                 *x /= f;
@@ -203,7 +210,8 @@ impl Medium {
             for dk in -1i64..=1 {
                 for dj in -1i64..=1 {
                     for di in -1i64..=1 {
-                        let Some(m) = dense_index(cd, i as i64 + di, j as i64 + dj, k as i64 + dk) else {
+                        let Some(m) = dense_index(cd, i as i64 + di, j as i64 + dj, k as i64 + dk)
+                        else {
                             continue;
                         };
                         if c.slot[m] == u32::MAX {
@@ -220,15 +228,21 @@ impl Medium {
             .map(|&m| {
                 let m = m as usize;
                 let corner = c.origin
-                    + Vec3::new((m % cd[0]) as f32, ((m / cd[0]) % cd[1]) as f32, (m / (cd[0] * cd[1])) as f32)
-                        * c.size;
+                    + Vec3::new(
+                        (m % cd[0]) as f32,
+                        ((m / cd[0]) % cd[1]) as f32,
+                        (m / (cd[0] * cd[1])) as f32,
+                    ) * c.size;
                 free_fraction(scene, corner, c.size)
             })
             .collect();
         self.slots = (0..d[0] * d[1] * d[2])
             .map(|v| {
                 let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
-                [self.slot[v], c.slot[((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE]]
+                [
+                    self.slot[v],
+                    c.slot[((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE],
+                ]
             })
             .collect();
     }
@@ -237,8 +251,11 @@ impl Medium {
     fn free_fraction(&self, scene: &Scene, v: usize) -> f32 {
         let d = self.dims;
         let corner = self.origin
-            + Vec3::new((v % d[0]) as f32, ((v / d[0]) % d[1]) as f32, (v / (d[0] * d[1])) as f32)
-                * self.voxel;
+            + Vec3::new(
+                (v % d[0]) as f32,
+                ((v / d[0]) % d[1]) as f32,
+                (v / (d[0] * d[1])) as f32,
+            ) * self.voxel;
         free_fraction(scene, corner, self.voxel)
     }
 

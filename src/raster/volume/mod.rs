@@ -115,15 +115,23 @@ impl VolumeRadiance {
         // the medium's transmittance calibrated against the strands'
         let segments = crate::raster::setup::world_segments(&scene.strands);
         let calibration = match crate::raster::traced::SegmentGrid::new(&segments) {
-            Some(grid) => calibrate(&calibration_rays(&medium, &segments, &grid, CALIBRATION_RAYS)),
+            Some(grid) => calibrate(&calibration_rays(
+                &medium,
+                &segments,
+                &grid,
+                CALIBRATION_RAYS,
+            )),
             None => calibrate(&[]),
         };
         medium.scale(calibration.k as f32);
         let bins = Bins {
             n: settings.bins.max(1),
         };
-        let size = Vec3::new(medium.dims[0] as f32, medium.dims[1] as f32, medium.dims[2] as f32)
-            * medium.voxel;
+        let size = Vec3::new(
+            medium.dims[0] as f32,
+            medium.dims[1] as f32,
+            medium.dims[2] as f32,
+        ) * medium.voxel;
         let (c, r) = (medium.origin + 0.5 * size, 0.5 * size.length());
         let lights: Vec<&Light> = scene
             .lights
@@ -226,7 +234,8 @@ impl VolumeRadiance {
         // blond_env at 2^20 photons: relMSE 2.15e-2 -> 2.06e-2 and
         // 3.34e-3 -> 3.04e-3)
         let fluence = smooth(&medium.cells, &fluence, nb);
-        let response = response::ResponseTable::new(crate::raster::shade::far_response(&scene.hair));
+        let response =
+            response::ResponseTable::new(crate::raster::shade::far_response(&scene.hair));
         Some(Self {
             medium,
             bins,
@@ -297,8 +306,13 @@ impl VolumeRadiance {
                 let sl = t.dot(l).clamp(-1.0, 1.0);
                 let l_n = l - t * sl;
                 let len = l_n.length();
-                let cos_phi = if len > 0.0 { (v_n.dot(l_n) / len).clamp(-1.0, 1.0) } else { 1.0 };
-                out += self.response.eval(sv, sl, response::acos(cos_phi)) * Vec3::new(a[0], a[1], a[2]);
+                let cos_phi = if len > 0.0 {
+                    (v_n.dot(l_n) / len).clamp(-1.0, 1.0)
+                } else {
+                    1.0
+                };
+                out += self.response.eval(sv, sl, response::acos(cos_phi))
+                    * Vec3::new(a[0], a[1], a[2]);
             }
         }
         out / wsum
@@ -327,7 +341,8 @@ fn calibration_rays(
             .into_par_iter()
             .map(|i| {
                 let mut rng = Rng::new(i as u64 ^ 0xC0FF_EE00);
-                let si = ((rng.uniform() as f64 * segments.len() as f64) as usize).min(segments.len() - 1);
+                let si = ((rng.uniform() as f64 * segments.len() as f64) as usize)
+                    .min(segments.len() - 1);
                 let s = &segments[si];
                 let o = s.a + (s.b - s.a) * rng.uniform();
                 let z = 1.0 - 2.0 * rng.uniform();
@@ -339,7 +354,11 @@ fn calibration_rays(
                     strand: s.strand,
                     segment: si as u32,
                 };
-                let clear = if grid.occluded(o, d, f32::INFINITY, &fiber) { 0.0 } else { 1.0 };
+                let clear = if grid.occluded(o, d, f32::INFINITY, &fiber) {
+                    0.0
+                } else {
+                    1.0
+                };
                 (clear, medium.optical_depth(o, d))
             })
             .collect()
@@ -361,7 +380,12 @@ pub struct Calibration {
 /// equals the strands' mean transmittance (bisection on [1/4, 4]).
 fn calibrate(rays: &[(f32, f32)]) -> Calibration {
     if rays.is_empty() {
-        return Calibration { strands: 1.0, medium: 1.0, calibrated: 1.0, k: 1.0 };
+        return Calibration {
+            strands: 1.0,
+            medium: 1.0,
+            calibrated: 1.0,
+            k: 1.0,
+        };
     }
     let n = rays.len() as f64;
     let geo = rays.iter().map(|r| r.0 as f64).sum::<f64>() / n;
@@ -377,7 +401,12 @@ fn calibrate(rays: &[(f32, f32)]) -> Calibration {
         }
     }
     let k = (lo * hi).sqrt();
-    Calibration { strands: geo, medium: vol(1.0), calibrated: vol(k), k }
+    Calibration {
+        strands: geo,
+        medium: vol(1.0),
+        calibrated: vol(k),
+        k,
+    }
 }
 
 /// The fluence filtered over each voxel's 3×3×3 neighbourhood, over the
@@ -390,7 +419,11 @@ fn smooth(m: &medium::Cells, fluence: &[[f32; 6]], nb: usize) -> Vec<[f32; 6]> {
             .into_par_iter()
             .flat_map_iter(|s| {
                 let v = m.cell_of[s] as usize;
-                let (i, j, k) = ((v % d[0]) as i64, ((v / d[0]) % d[1]) as i64, (v / (d[0] * d[1])) as i64);
+                let (i, j, k) = (
+                    (v % d[0]) as i64,
+                    ((v / d[0]) % d[1]) as i64,
+                    (v / (d[0] * d[1])) as i64,
+                );
                 let mut acc = vec![[0.0f32; 6]; nb];
                 let mut wsum = 0.0;
                 for dk in -1i64..=1 {
@@ -403,7 +436,8 @@ fn smooth(m: &medium::Cells, fluence: &[[f32; 6]], nb: usize) -> Vec<[f32; 6]> {
                             if ns == u32::MAX {
                                 continue;
                             }
-                            let w = [1.0f32, 0.5, 0.25][(di.abs() + dj.abs() + dk.abs()).min(2) as usize];
+                            let w = [1.0f32, 0.5, 0.25]
+                                [(di.abs() + dj.abs() + dk.abs()).min(2) as usize];
                             wsum += w;
                             let row = &fluence[ns as usize * nb..(ns as usize + 1) * nb];
                             for (a, r) in acc.iter_mut().zip(row) {
@@ -426,18 +460,38 @@ fn key(scene: &Scene, env: Option<&EnvLights>, s: &VolumeSettings) -> u64 {
     use crate::raster::shadow::WordHash;
     let mut h = WordHash::default();
     h.word(crate::raster::shadow::geometry_hash(scene));
-    for l in scene.lights.iter().chain(env.into_iter().flat_map(|e| e.lights.iter())) {
+    for l in scene
+        .lights
+        .iter()
+        .chain(env.into_iter().flat_map(|e| e.lights.iter()))
+    {
         match *l {
             Light::Directional {
                 direction,
                 intensity,
                 ..
-            } => h.floats([0.0, direction.x, direction.y, direction.z, intensity.x, intensity.y, intensity.z]),
+            } => h.floats([
+                0.0,
+                direction.x,
+                direction.y,
+                direction.z,
+                intensity.x,
+                intensity.y,
+                intensity.z,
+            ]),
             Light::Point {
                 position,
                 intensity,
                 ..
-            } => h.floats([1.0, position.x, position.y, position.z, intensity.x, intensity.y, intensity.z]),
+            } => h.floats([
+                1.0,
+                position.x,
+                position.y,
+                position.z,
+                intensity.x,
+                intensity.y,
+                intensity.z,
+            ]),
         }
     }
     h.floats(scene.spheres.iter().flat_map(|s| s.albedo.to_array()));

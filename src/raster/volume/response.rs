@@ -18,7 +18,8 @@ pub const NODES: usize = 49;
 #[inline]
 pub fn acos(x: f32) -> f32 {
     let a = x.abs().min(1.0);
-    let r = (1.0 - a).sqrt() * (1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261_0 + a * -0.018_729_3)));
+    let r = (1.0 - a).sqrt()
+        * (1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261_0 + a * -0.018_729_3)));
     if x < 0.0 {
         std::f32::consts::PI - r
     } else {

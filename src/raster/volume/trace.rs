@@ -51,7 +51,9 @@ impl Phase<'_> {
                 // the normal plane's direction of wi, and the normal that
                 // puts wi at offset h = sin γ
                 let along = wi - t * t.dot(wi);
-                let p = along.try_normalize().unwrap_or_else(|| t.any_orthonormal_vector());
+                let p = along
+                    .try_normalize()
+                    .unwrap_or_else(|| t.any_orthonormal_vector());
                 let q = t.cross(p);
                 let h = 2.0 * rng.uniform() - 1.0;
                 let (sin_g, cos_g) = (h, (1.0 - h * h).max(0.0).sqrt());
@@ -75,7 +77,12 @@ impl Phase<'_> {
                 let r = (1.0 - z * z).max(0.0).sqrt();
                 let a = std::f32::consts::TAU * rng.uniform();
                 let o = Vec3::new(r * a.cos(), r * a.sin(), z);
-                let f = k.eval(&o.to_array(), &wi.to_array(), &t.to_array(), &Transmittance::default());
+                let f = k.eval(
+                    &o.to_array(),
+                    &wi.to_array(),
+                    &t.to_array(),
+                    &Transmittance::default(),
+                );
                 let w = Vec3::from(f) * (4.0 * std::f32::consts::PI);
                 w.is_finite().then_some((o, w.max(Vec3::ZERO)))
             }
@@ -104,7 +111,11 @@ impl Emitter {
                 ..
             } => {
                 let d = (position - c).length();
-                let cos_a = if d > r { (1.0 - (r / d).powi(2)).max(0.0).sqrt() } else { -1.0 };
+                let cos_a = if d > r {
+                    (1.0 - (r / d).powi(2)).max(0.0).sqrt()
+                } else {
+                    -1.0
+                };
                 (intensity * std::f32::consts::TAU * (1.0 - cos_a), cos_a)
             }
         };
@@ -112,7 +123,11 @@ impl Emitter {
         let tint = if power > 0.0 { p / power } else { Vec3::ZERO };
         Self {
             light: light.clone(),
-            power: if power.is_finite() { power.max(0.0) } else { 0.0 },
+            power: if power.is_finite() {
+                power.max(0.0)
+            } else {
+                0.0
+            },
             tint,
             c,
             r,
@@ -145,7 +160,10 @@ impl Emitter {
                 let z = 1.0 - u[0] * (1.0 - cos_a);
                 let s = (1.0 - z * z).max(0.0).sqrt();
                 let phi = std::f32::consts::TAU * u[1];
-                (position, (axis * z + (a * phi.cos() + b * phi.sin()) * s).normalize())
+                (
+                    position,
+                    (axis * z + (a * phi.cos() + b * phi.sin()) * s).normalize(),
+                )
             }
         }
     }
@@ -239,7 +257,11 @@ pub struct Transport<'a> {
 /// Traces one photon.
 pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
     let (m, phase, spheres, tally) = (tr.medium, tr.phase, tr.spheres, tr.tally);
-    let Photon { mut o, mut d, mut w } = photon;
+    let Photon {
+        mut o,
+        mut d,
+        mut w,
+    } = photon;
     let mut events = 0u32;
     let inv_voxel = 1.0 / m.voxel;
     let inv_cell = 1.0 / m.cells.size;
@@ -289,7 +311,8 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
                     2
                 };
                 let t1 = t_next[a].min(t_end);
-                let v = (ijk[2] as usize * m.dims[1] + ijk[1] as usize) * m.dims[0] + ijk[0] as usize;
+                let v =
+                    (ijk[2] as usize * m.dims[1] + ijk[1] as usize) * m.dims[0] + ijk[0] as usize;
                 let len = (t1 - t).max(0.0);
                 let [slot, cell] = m.slots[v];
                 if cell != run_cell {
@@ -339,7 +362,8 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
             let (u1, u2) = (rng.uniform(), rng.uniform());
             let r = u1.sqrt();
             let phi = std::f32::consts::TAU * u2;
-            d = (a * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt()).normalize();
+            d = (a * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt())
+                .normalize();
             w *= sp.albedo;
         } else {
             return;
