@@ -373,6 +373,15 @@ impl<T: Real> KarisHair<T> {
         }
     }
 
+    /// The same model without its own multiple-scattering term: R, TT and
+    /// TRT alone (what dual and volume scattering scatter, and replace the
+    /// term with).
+    pub fn single_scattering(&self) -> Self {
+        let mut c = self.components;
+        c.ms = false;
+        self.with_components(c)
+    }
+
     /// Environment-lighting variant (Karis 2016): Backlit 0 (so R is
     /// multiplied by `saturate(1 + V·L)` and TT vanishes, and TT is not
     /// evaluated at all), and 0.2 added to each β.

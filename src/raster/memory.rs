@@ -104,11 +104,13 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
     }
     if m.volume {
         // The medium, the light's integer tallies and its fluence, and the
-        // segment grid its calibration traces through.
+        // segment grid its calibration traces through (the traced shadows'
+        // when there is one).
         let s = super::volume::VolumeSettings::of(opts);
+        let grid = if m.traced { 0 } else { segments * 64 };
         items.push((
             "volume scattering",
-            super::volume::bytes_estimate(scene, &s) as u64 + segments * 64,
+            super::volume::bytes_estimate(scene, &s) as u64 + grid,
         ));
     }
     MemoryEstimate { items }

@@ -200,9 +200,14 @@ pub fn render_with_progress(
     };
     let volume = if methods.volume {
         let tv = std::time::Instant::now();
-        let solved = volume::cached(
+        let input = volume::SolveInput {
             scene,
-            env_lights.as_ref(),
+            segments: &world,
+            traced: traced.as_ref(),
+            env: env_lights.as_ref(),
+        };
+        let solved = volume::cached(
+            &input,
             volume::VolumeSettings::of(opts),
             Some(cancel),
             Some(done),

@@ -88,9 +88,7 @@ impl DualTable {
     /// lobe's `rest_p` (everything but its longitudinal Gaussian) at the
     /// mirror pair `θV = θd, θL = −θd`.
     pub fn for_karis(model: &KarisHair<f32>, d_b: f32) -> Self {
-        let mut c = model.components();
-        c.ms = false;
-        let model = model.with_components(c);
+        let model = model.single_scattering();
         let f = |u_l: f64, u_o: f64, phi: f64| {
             let cos = |u: f64| (1.0 - u * u).max(0.0).sqrt();
             let view = (u_o as f32, cos(u_o) as f32);

@@ -196,9 +196,7 @@ impl<'a> Shader<'a> {
                 if k.components().ms
                     && (ms != MultipleScattering::Karis || skip_unused && k.scatter_is_zero()) =>
             {
-                let mut c = k.components();
-                c.ms = false;
-                HairShading::Karis(k.with_components(c))
+                HairShading::Karis(k.single_scattering())
             }
             other => other.clone(),
         };
@@ -571,11 +569,7 @@ impl<'a> Shader<'a> {
 /// KarisHair without its own multiple-scattering term; DEonHair: 0).
 pub fn far_response(hair: &HairShading) -> impl Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync + '_ {
     let karis = match hair {
-        HairShading::Karis(k) => {
-            let mut c = k.components();
-            c.ms = false;
-            Some(k.with_components(c))
-        }
+        HairShading::Karis(k) => Some(k.single_scattering()),
         _ => None,
     };
     move |t: Vec3, v: Vec3, l: Vec3| match (hair, &karis) {

@@ -28,8 +28,6 @@ pub struct Medium {
     pub origin: Vec3,
     pub voxel: f32,
     pub dims: [usize; 3],
-    /// Dense voxel index -> slot of an occupied voxel (`u32::MAX`: none).
-    pub slot: Vec<u32>,
     /// Per slot: `[S, Mxx, Myy, Mzz, Mxy, Mxz, Myz]` per unit volume.
     pub moments: Vec<[f32; 7]>,
     /// Per slot: up to [`TANGENTS`] fiber tangents (zero: unused).
@@ -38,8 +36,9 @@ pub struct Medium {
     pub voxel_of: Vec<u32>,
     /// The grid light is tallied on.
     pub cells: Cells,
-    /// Dense voxel index -> its slot and the slot of the cell holding it
-    /// (`u32::MAX`: none), side by side for the photons' walk.
+    /// Dense voxel index -> its slot (a voxel with hair) and the slot of
+    /// the cell holding it (`u32::MAX`: none), side by side for the
+    /// photons' walk.
     pub slots: Vec<[u32; 2]>,
 }
 
@@ -125,7 +124,7 @@ pub fn bytes_estimate(scene: &Scene, resolution: usize) -> usize {
         .sum();
     let occupied = (pieces as usize).min(dense);
     let cells = dense.div_ceil(FINE * FINE * FINE);
-    dense * 12 + occupied * (28 + TANGENTS * 12 + 4) + cells * 12
+    dense * 8 + occupied * (28 + TANGENTS * 12 + 4) + cells * 12
 }
 
 /// Cells of a medium of `scene` at `resolution` (all of them: an upper
@@ -145,7 +144,7 @@ impl Medium {
             origin,
             voxel,
             dims,
-            slot: vec![u32::MAX; dims[0] * dims[1] * dims[2]],
+            slots: vec![[u32::MAX; 2]; dims[0] * dims[1] * dims[2]],
             moments: Vec::new(),
             tangents: Vec::new(),
             voxel_of: Vec::new(),
@@ -157,7 +156,6 @@ impl Medium {
                 cell_of: Vec::new(),
                 free: Vec::new(),
             },
-            slots: Vec::new(),
         };
         // per slot: the reservoir's total weight
         let mut total: Vec<[f32; TANGENTS]> = Vec::new();
@@ -236,15 +234,10 @@ impl Medium {
                 free_fraction(scene, corner, c.size)
             })
             .collect();
-        self.slots = (0..d[0] * d[1] * d[2])
-            .map(|v| {
-                let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
-                [
-                    self.slot[v],
-                    c.slot[((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE],
-                ]
-            })
-            .collect();
+        for (v, s) in self.slots.iter_mut().enumerate() {
+            let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
+            s[1] = c.slot[((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE];
+        }
     }
 
     /// The fraction of voxel `v` outside `scene`'s opaque spheres.
@@ -286,10 +279,10 @@ impl Medium {
         let Some(v) = self.voxel_at(p) else {
             return;
         };
-        let mut s = self.slot[v];
+        let mut s = self.slots[v][0];
         if s == u32::MAX {
             s = self.moments.len() as u32;
-            self.slot[v] = s;
+            self.slots[v][0] = s;
             self.moments.push([0.0; 7]);
             self.tangents.push([Vec3::ZERO; TANGENTS]);
             total.push([0.0; TANGENTS]);
@@ -377,7 +370,7 @@ impl Medium {
         let limit = 4 * (self.dims[0] + self.dims[1] + self.dims[2]);
         for _ in 0..limit {
             let Some(v) = self.voxel_at(p) else { break };
-            let s = self.slot[v];
+            let s = self.slots[v][0];
             if s != u32::MAX {
                 tau += self.sigma(s as usize, d) * step;
             }
@@ -388,7 +381,7 @@ impl Medium {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.slot.len() * 12
+        self.slots.len() * 8
             + self.moments.len() * (28 + TANGENTS * 12 + 4)
             + self.cells.slot.len() * 4
             + self.cells.cell_of.len() * 8

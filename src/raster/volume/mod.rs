@@ -100,32 +100,49 @@ pub fn bytes_estimate(scene: &Scene, s: &VolumeSettings) -> usize {
     medium + cells * s.bins * s.bins * trace::WORDS * (8 + 4)
 }
 
+/// What a solve reads: the scene, its strands' world segments and, when
+/// the render traces shadows, their grid (the calibration traces through it,
+/// or through one it builds), and the environment's directions.
+pub struct SolveInput<'a> {
+    pub scene: &'a Scene,
+    pub segments: &'a [crate::raster::setup::WorldSegment],
+    pub traced: Option<&'a crate::raster::traced::SegmentGrid>,
+    pub env: Option<&'a EnvLights>,
+}
+
 impl VolumeRadiance {
-    /// Solves the transport of `scene`'s lights and `env`'s directions
-    /// (None: cancelled, or no hair).
+    /// Solves the transport of the scene's lights and the environment's
+    /// directions (None: cancelled, or no hair).
     pub fn solve(
-        scene: &Scene,
-        env: Option<&EnvLights>,
+        input: &SolveInput,
         settings: VolumeSettings,
         cancel: Option<&AtomicBool>,
         progress: Option<&AtomicUsize>,
     ) -> Option<Self> {
+        let (scene, env) = (input.scene, input.env);
         let t0 = std::time::Instant::now();
         let mut medium = Medium::new(scene, settings.resolution * medium::FINE)?;
         // the medium's transmittance calibrated against the strands'
-        let segments = crate::raster::setup::world_segments(&scene.strands);
-        let calibration = match crate::raster::traced::SegmentGrid::new(&segments) {
+        let built;
+        let grid = match input.traced {
+            Some(g) => Some(g),
+            None => {
+                built = crate::raster::traced::SegmentGrid::new(input.segments);
+                built.as_ref()
+            }
+        };
+        let calibration = match grid {
             Some(grid) => calibrate(&calibration_rays(
                 &medium,
-                &segments,
-                &grid,
+                input.segments,
+                grid,
                 CALIBRATION_RAYS,
             )),
             None => calibrate(&[]),
         };
         medium.scale(calibration.k as f32);
         let bins = Bins {
-            n: settings.bins.max(1),
+            n: settings.bins.clamp(BINS.0, BINS.1),
         };
         let size = Vec3::new(
             medium.dims[0] as f32,
@@ -158,11 +175,7 @@ impl VolumeRadiance {
             // KarisHair's single scattering (its own multiple-scattering
             // term is what the volume replaces)
             let karis = match &scene.hair {
-                HairShading::Karis(k) => {
-                    let mut c = k.components();
-                    c.ms = false;
-                    Some(k.with_components(c))
-                }
+                HairShading::Karis(k) => Some(k.single_scattering()),
                 _ => None,
             };
             let phase = match (&scene.hair, &karis) {
@@ -266,8 +279,9 @@ impl VolumeRadiance {
         let q = (p - m.origin) / m.size - Vec3::splat(0.5);
         let base = q.floor();
         let fr = q - base;
-        let mut acc = [[0.0f32; 6]; 256];
-        let acc = &mut acc[..nb.min(256)];
+        // every bin count the settings allow (BINS.1² at most) fits
+        let mut acc = [[0.0f32; 6]; BINS.1 * BINS.1];
+        let acc = &mut acc[..nb];
         let mut wsum = 0.0;
         for corner in 0..8 {
             let (dx, dy, dz) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
@@ -523,13 +537,12 @@ pub const CACHE_SOLVES: usize = 2;
 /// same key (identical either way: the solve is deterministic); the flag
 /// says whether it was reused.
 pub fn cached(
-    scene: &Scene,
-    env: Option<&EnvLights>,
+    input: &SolveInput,
     settings: VolumeSettings,
     cancel: Option<&AtomicBool>,
     progress: Option<&AtomicUsize>,
 ) -> Option<(Arc<VolumeRadiance>, bool)> {
-    let k = key(scene, env, &settings);
+    let k = key(input.scene, input.env, &settings);
     {
         let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
         if let Some(i) = c.iter().position(|e| e.0 == k) {
@@ -544,7 +557,7 @@ pub fn cached(
     }
     // a solve that traces nothing (no light, no photons) counts its steps at once
     let before = progress.map(|p| p.load(Ordering::Relaxed));
-    let solved = VolumeRadiance::solve(scene, env, settings, cancel, progress);
+    let solved = VolumeRadiance::solve(input, settings, cancel, progress);
     if let (Some(p), Some(b)) = (progress, before) {
         let counted = p.load(Ordering::Relaxed) - b;
         p.fetch_add(PROGRESS_STEPS.saturating_sub(counted), Ordering::Relaxed);

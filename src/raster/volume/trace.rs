@@ -91,46 +91,87 @@ impl Phase<'_> {
 }
 
 /// A light as photons leave it: its power towards the hair's bounding
-/// sphere (centre `c`, radius `r`) and how a photon starts.
+/// sphere and how a photon starts.
 pub struct Emitter {
-    light: Light,
     /// Mean over RGB of the power, and the RGB power over that mean.
     pub power: f32,
     pub tint: Vec3,
-    c: Vec3,
-    r: f32,
+    start: Start,
+}
+
+/// Where a light's photons start, fixed per light.
+enum Start {
+    /// The disk of radius `r` facing a directional light, behind the
+    /// bounding sphere (centre `c`): photons along `d`, `a` and `b` across.
+    Disk {
+        c: Vec3,
+        r: f32,
+        d: Vec3,
+        a: Vec3,
+        b: Vec3,
+    },
+    /// The cone from a point light towards the bounding sphere (the whole
+    /// sphere of directions when the light is inside): `cos_a` its
+    /// half-angle's cosine about `axis`, `a` and `b` across.
+    Cone {
+        position: Vec3,
+        axis: Vec3,
+        a: Vec3,
+        b: Vec3,
+        cos_a: f32,
+    },
 }
 
 impl Emitter {
+    /// `light` towards the bounding sphere of centre `c` and radius `r`.
     pub fn new(light: &Light, c: Vec3, r: f32) -> Self {
-        let (p, _) = match *light {
-            Light::Directional { intensity, .. } => (intensity * std::f32::consts::PI * r * r, 0.0),
+        let (p, start) = match *light {
+            Light::Directional {
+                direction,
+                intensity,
+                ..
+            } => {
+                let d = -direction.normalize();
+                let (a, b) = d.any_orthonormal_pair();
+                (
+                    intensity * std::f32::consts::PI * r * r,
+                    Start::Disk { c, r, d, a, b },
+                )
+            }
             Light::Point {
                 position,
                 intensity,
                 ..
             } => {
-                let d = (position - c).length();
-                let cos_a = if d > r {
-                    (1.0 - (r / d).powi(2)).max(0.0).sqrt()
+                let to = c - position;
+                let dist = to.length();
+                let cos_a = if dist > r {
+                    (1.0 - (r / dist).powi(2)).max(0.0).sqrt()
                 } else {
                     -1.0
                 };
-                (intensity * std::f32::consts::TAU * (1.0 - cos_a), cos_a)
+                let axis = if dist > 0.0 { to / dist } else { Vec3::Z };
+                let (a, b) = axis.any_orthonormal_pair();
+                let start = Start::Cone {
+                    position,
+                    axis,
+                    a,
+                    b,
+                    cos_a,
+                };
+                (intensity * std::f32::consts::TAU * (1.0 - cos_a), start)
             }
         };
         let power = (p.x + p.y + p.z) / 3.0;
         let tint = if power > 0.0 { p / power } else { Vec3::ZERO };
         Self {
-            light: light.clone(),
             power: if power.is_finite() {
                 power.max(0.0)
             } else {
                 0.0
             },
             tint,
-            c,
-            r,
+            start,
         }
     }
 
@@ -138,28 +179,24 @@ impl Emitter {
     /// disk facing a directional light, or the cone of a point light
     /// towards the bounding sphere).
     pub fn start(&self, u: [f32; 2]) -> (Vec3, Vec3) {
-        match self.light {
-            Light::Directional { direction, .. } => {
-                let d = -direction.normalize();
-                let (a, b) = d.any_orthonormal_pair();
-                let rad = self.r * u[0].sqrt();
-                let phi = std::f32::consts::TAU * u[1];
-                let o = self.c - d * (self.r * 1.01) + (a * phi.cos() + b * phi.sin()) * rad;
-                (o, d)
+        let phi = std::f32::consts::TAU * u[1];
+        match self.start {
+            Start::Disk { c, r, d, a, b } => {
+                let rad = r * u[0].sqrt();
+                (
+                    c - d * (r * 1.01) + (a * phi.cos() + b * phi.sin()) * rad,
+                    d,
+                )
             }
-            Light::Point { position, .. } => {
-                let to = self.c - position;
-                let dist = to.length();
-                let cos_a = if dist > self.r {
-                    (1.0 - (self.r / dist).powi(2)).max(0.0).sqrt()
-                } else {
-                    -1.0
-                };
-                let axis = if dist > 0.0 { to / dist } else { Vec3::Z };
-                let (a, b) = axis.any_orthonormal_pair();
+            Start::Cone {
+                position,
+                axis,
+                a,
+                b,
+                cos_a,
+            } => {
                 let z = 1.0 - u[0] * (1.0 - cos_a);
                 let s = (1.0 - z * z).max(0.0).sqrt();
-                let phi = std::f32::consts::TAU * u[1];
                 (
                     position,
                     (axis * z + (a * phi.cos() + b * phi.sin()) * s).normalize(),
