@@ -326,7 +326,7 @@ def test_13_vertex_shading_close_to_pixel_shading():
     vx = hs.render(s, width=160, height=90, shading="vertex")
     e = hs.rel_mse(vx, px)
     assert 0 < e < 1e-3, e
-    with pytest.raises(ValueError, match="shading: expected .pixel. or .vertex."):
+    with pytest.raises(ValueError, match="shading: expected .pixel. or .split. or .vertex."):
         hs.render(s, shading="face")
     with pytest.raises(hs.SceneError, match="render.shading: expected"):
         hs.Scene.from_dict({**d, "render": {"shading": "flat"}})

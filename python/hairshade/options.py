@@ -224,8 +224,10 @@ class RenderSettings(TypedDict, total=False):
         "none; karis: KarisHair's own term; dual: dual scattering through the fiber density grid "
         "(ChiangHair, KarisHair); volume: light traced through the hair as an oriented fiber medium, "
         "solved once per lighting and reused for every view (ChiangHair, KarisHair)")]
-    shading: Annotated[Literal["pixel", "vertex"], Native("shading"), Doc(
-        "strands shaded per fragment, or per vertex and interpolated")]
+    shading: Annotated[Literal["pixel", "split", "vertex"], Native("shading"), Doc(
+        "pixel: strands shaded per fragment; split: per fragment only each light's unscattered light (its "
+        "shadow, the near field), the environment and multiple scattering per vertex and interpolated; "
+        "vertex: everything per vertex")]
     lod: Annotated[Union[float, Literal["auto"]], Native("lod"), Doc(
         "the fraction of the strands drawn, each wider by its inverse, or 'auto' (from their width on screen)")]
     density_resolution: Annotated[int, Native("density_resolution"), _GRID, Doc(

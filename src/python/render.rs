@@ -254,6 +254,7 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         _ => None,
     };
     let layers = r.int("layers", 4)? as usize;
+    let shading = r.choice("shading", "pixel", &["pixel", "split", "vertex"])?;
     let opts = RenderOptions {
         transparency: match transparency {
             "sorted" => Transparency::Sorted,
@@ -274,7 +275,8 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         shadow_density: r.num("shadow_density", def.shadow_density as f64)? as f32,
         pcf_radius: r.int("pcf_radius", def.pcf_radius as i64)? as i32,
         background: r.rgb("background", def.background.to_array())?.into(),
-        vertex_shading: r.choice("shading", "pixel", &["pixel", "vertex"])? == "vertex",
+        vertex_shading: shading == "vertex",
+        split_shading: shading == "split",
         frustum_culling: r.flag("frustum_culling", def.frustum_culling)?,
         backface_culling: r.flag("backface_culling", def.backface_culling)?,
         opaque_culling: r.flag("opaque_culling", def.opaque_culling)?,
@@ -338,7 +340,12 @@ fn options_dict<'py>(
     d.set_item("shadow_density", o.shadow_density as f64)?;
     d.set_item("pcf_radius", o.pcf_radius)?;
     d.set_item("background", o.background.to_array().map(|x| x as f64))?;
-    d.set_item("shading", if o.vertex_shading { "vertex" } else { "pixel" })?;
+    let shading = match (o.vertex_shading, o.split_shading) {
+        (true, _) => "vertex",
+        (false, true) => "split",
+        _ => "pixel",
+    };
+    d.set_item("shading", shading)?;
     d.set_item("frustum_culling", o.frustum_culling)?;
     d.set_item("backface_culling", o.backface_culling)?;
     d.set_item("opaque_culling", o.opaque_culling)?;

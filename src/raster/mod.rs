@@ -37,6 +37,7 @@ pub mod coverage;
 pub mod cull;
 pub mod density;
 pub mod env_light;
+pub mod lighting;
 pub mod lod;
 pub mod memory;
 pub mod methods;
@@ -183,28 +184,14 @@ pub fn render_with_progress(
     // 3. Segments, frustum culling, per-vertex shading.
     let t1 = std::time::Instant::now();
     let methods = methods::Methods::new(scene, opts);
-    let counts = fiber_counts(scene, opts, &methods);
-    let traced = methods
-        .traced
-        .then(|| traced::SegmentGrid::new(&world))
-        .flatten();
-    let env_lights = match &scene.environment {
-        Some(env) if methods.environment_as_lights => Some(env_light::EnvLights::new(
-            scene,
-            env,
-            opts.environment_directions,
-            opts.density_resolution,
-            methods.counts_behind,
-        )),
-        _ => None,
-    };
+    let (lit, _) = lighting::Lighting::cached(scene, opts, &methods, &world);
     let volume = if methods.volume {
         let tv = std::time::Instant::now();
         let input = volume::SolveInput {
             scene,
             segments: &world,
-            traced: traced.as_ref(),
-            env: env_lights.as_ref(),
+            traced: lit.traced.as_ref(),
+            env: lit.env_lights.as_ref(),
         };
         let solved = volume::cached(
             &input,
@@ -226,17 +213,9 @@ pub fn render_with_progress(
     } else {
         None
     };
-    let shader = Shader::new(
-        scene,
-        &shadows,
-        counts,
-        traced,
-        env_lights,
-        Some(cancel),
-        opts,
-    )
-    .with_sphere_bounce(opts)
-    .with_volume(volume, &world, view.eye);
+    let shader = Shader::new(scene, &shadows, lit, Some(cancel), opts)
+        .with_sphere_bounce(opts)
+        .with_vertex_terms(volume, &world, view.eye);
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();
@@ -356,34 +335,6 @@ fn shadow_maps(
     stats.shadow_maps_reused = built.iter().filter(|b| b.1).count();
     stats.shadow_maps_skipped = unneeded.iter().filter(|&&u| u).count();
     built.into_iter().map(|b| b.0).collect()
-}
-
-/// Per light, the fiber count towards it (the `density` shadow model: for
-/// every light that casts shadows).
-fn fiber_counts(
-    scene: &Scene,
-    opts: &RenderOptions,
-    methods: &methods::Methods,
-) -> Vec<Option<density::FiberCount>> {
-    let wanted = |l: &scene::Light| {
-        methods.fiber_counts
-            && matches!(
-                l,
-                scene::Light::Directional { shadows: true, .. }
-                    | scene::Light::Point { shadows: true, .. }
-            )
-    };
-    if !scene.lights.iter().any(wanted) {
-        return vec![None; scene.lights.len()];
-    }
-    let Some(grid) = density::DensityGrid::new(scene, opts.density_resolution) else {
-        return vec![None; scene.lights.len()];
-    };
-    scene
-        .lights
-        .iter()
-        .map(|l| wanted(l).then(|| grid.fiber_count_with(l, methods.counts_behind)))
-        .collect()
 }
 
 /// Per-vertex shading of segments clipped at the near plane: a clipped end

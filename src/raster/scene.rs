@@ -213,6 +213,11 @@ pub struct RenderOptions {
     /// Shade strands once per vertex and interpolate along segments
     /// (cards are always shaded per pixel).
     pub vertex_shading: bool,
+    /// Shade strands per fragment with only each light's unscattered
+    /// light (its shadow, the near field), and read the environment and
+    /// the scattered light at the vertices, interpolated along segments
+    /// (`shading = "split"`; see `shade/at_vertices.rs`).
+    pub split_shading: bool,
     /// Frustum culling: drop strand segments that reach no tile before
     /// shading them (per-vertex shading then shades only the vertices of
     /// the remaining segments); exact: such segments are never binned.
@@ -302,6 +307,7 @@ impl Default for RenderOptions {
             pcf_radius: 1,
             background: Vec3::ZERO,
             vertex_shading: false,
+            split_shading: false,
             frustum_culling: true,
             backface_culling: true,
             opaque_culling: true,

@@ -95,49 +95,78 @@ impl DualTable {
         path: LightPath,
         d_f: f32,
     ) -> [f32; 3] {
+        let (direct, scattered) = self.shade_parts(far, g, p0, path, d_f, true);
+        std::array::from_fn(|c| direct[c] + scattered[c])
+    }
+
+    /// [`Self::shade`] in its two parts: the light that arrives unscattered
+    /// (`p0`, times the single scattering and, under local back
+    /// scattering, Zinke's back term) and the light the fibers on the way
+    /// scattered forward or back (independent of `p0`, and of the point's
+    /// own shadow; with `scattered` false it is not computed). Each part
+    /// is non-negative and finite (a non-finite channel reads 0).
+    pub fn shade_parts(
+        &self,
+        far: FarField,
+        g: &FiberAngles,
+        p0: f32,
+        path: LightPath,
+        d_f: f32,
+        scattered: bool,
+    ) -> ([f32; 3], [f32; 3]) {
         use std::f32::consts::{FRAC_1_PI, FRAC_PI_2};
         let (view, light, phi) = (g.view, g.light, g.phi);
         let (n, clear) = (path.n, path.clear);
         let t = self.terms(light.0);
         if path.behind.is_some() {
-            return self.shade_two_stream(far, &t, g, p0, path, d_f);
+            return self.two_stream_parts(far, &t, g, p0, path, d_f, scattered);
         }
-        let single = far.single(view, light, phi);
         let x = view.0 + light.0;
         let back_side = if phi.abs() < FRAC_PI_2 { 1.0 } else { 0.0 };
-        let mut out = [0.0f32; 3];
+        let d_b = self.d_b;
+        let direct = if p0 > 0.0 {
+            let single = far.single(view, light, phi);
+            std::array::from_fn(|c| {
+                let back =
+                    t.big_a_b[c] * gauss(x - t.delta_b[c], t.sigma_b2[c]) * back_side * FRAC_1_PI;
+                finite(p0 * (single[c] + d_b * back))
+            })
+        } else {
+            [0.0; 3]
+        };
+        if !scattered {
+            return (direct, [0.0; 3]);
+        }
         let n = n.max(0.0);
         let beta_f2 = (t.beta_f2[0] + t.beta_f2[1] + t.beta_f2[2]) / 3.0;
         // forward spread after n fibers (bounded: beyond ~4 the lobes are flat)
         let sigma_f2 = (n * beta_f2).min(4.0);
-        let scattered: [f32; 3] =
+        let weight: [f32; 3] =
             std::array::from_fn(|c| clear * ((-n * (1.0 - t.a_f[c])).exp() - (-n).exp()).max(0.0));
-        let f_scatter = where_any(&scattered, || {
+        let f_scatter = where_any(&weight, || {
             far.scatter_response(self, view, light, sigma_f2, phi)
         });
-        let d_b = self.d_b;
-        for c in 0..3 {
-            let dev = x - t.delta_b[c];
-            let back = t.big_a_b[c] * gauss(dev, t.sigma_b2[c]) * back_side * FRAC_1_PI;
-            let mut v = p0 * (single[c] + d_b * back);
-            if scattered[c] > 0.0 {
+        let scattered = std::array::from_fn(|c| {
+            if weight[c] > 0.0 {
                 let back_s = t.big_a_b[c]
-                    * gauss(dev, t.sigma_b2[c] + sigma_f2)
+                    * gauss(x - t.delta_b[c], t.sigma_b2[c] + sigma_f2)
                     * (1.0 - phi.abs() * FRAC_1_PI)
                     * FRAC_1_PI;
-                v += scattered[c] * d_f * (f_scatter[c] + d_b * back_s);
+                finite(weight[c] * d_f * (f_scatter[c] + d_b * back_s))
+            } else {
+                0.0
             }
-            out[c] = if v.is_finite() { v.max(0.0) } else { 0.0 };
-        }
-        out
+        });
+        (direct, scattered)
     }
 
-    /// [`Self::shade`] with the two-stream back scattering: the
+    /// [`Self::shade_parts`] with the two-stream back scattering: the
     /// forward stream `I⁺` (its scattered part `I⁺ − e^{−n}`, spread by
     /// `σ_f²` as Zinke's) and the backward stream `I⁻`, which reaches the
     /// fiber from the far side (azimuth `π − |φ|`) after one backward
     /// scattering and the forward ones around it (spread `β_b² + σ_f²`).
-    fn shade_two_stream(
+    #[allow(clippy::too_many_arguments)]
+    fn two_stream_parts(
         &self,
         far: FarField,
         t: &DualTerms,
@@ -145,9 +174,18 @@ impl DualTable {
         p0: f32,
         path: LightPath,
         d_f: f32,
-    ) -> [f32; 3] {
+        scattered: bool,
+    ) -> ([f32; 3], [f32; 3]) {
         let (view, light, phi) = (g.view, g.light, g.phi);
-        let single = far.single(view, light, phi);
+        let direct = if p0 > 0.0 {
+            let single = far.single(view, light, phi);
+            single.map(|s| finite(p0 * s))
+        } else {
+            [0.0; 3]
+        };
+        if !scattered {
+            return (direct, [0.0; 3]);
+        }
         let clear = path.clear;
         let (n, m) = (path.n.max(0.0), path.behind.unwrap_or(0.0).max(0.0));
         let mean = |x: &[f32; 3]| (x[0] + x[1] + x[2]) / 3.0;
@@ -177,14 +215,19 @@ impl DualTable {
                 std::f32::consts::PI - phi.abs(),
             )
         });
-        std::array::from_fn(|c| {
-            let v = p0 * single[c] + d_f * fwd[c] * f_fwd[c] + bwd[c] * f_bwd[c];
-            if v.is_finite() {
-                v.max(0.0)
-            } else {
-                0.0
-            }
-        })
+        let scattered =
+            std::array::from_fn(|c| finite(d_f * fwd[c] * f_fwd[c] + bwd[c] * f_bwd[c]));
+        (direct, scattered)
+    }
+}
+
+/// `v` where finite and positive, else 0.
+#[inline]
+fn finite(v: f32) -> f32 {
+    if v.is_finite() {
+        v.max(0.0)
+    } else {
+        0.0
     }
 }
 

@@ -553,6 +553,17 @@ impl FiberCount {
             .n
     }
 
+    /// Bytes held by the counts.
+    pub fn bytes(&self) -> usize {
+        self.n.len() * 8 + self.behind.len() * 4
+    }
+
+    /// Whether the counts hold the fibers behind each point
+    /// ([`LightPath::behind`]: two-stream back scattering).
+    pub fn has_behind(&self) -> bool {
+        !self.behind.is_empty()
+    }
+
     /// [`Self::at_fiber`] with the count away from the light there (its
     /// own share left out too) when this count holds it, in one pass.
     #[inline]

@@ -6,16 +6,16 @@
 //! ([`Shader::shade`]). What of each light reaches a point is in
 //! `visibility.rs`.
 
+mod at_vertices;
 mod near;
 mod vertices;
 mod visibility;
 pub use near::offset_line;
 pub use vertices::shade_vertices;
 
-use super::density::FiberCount;
+use super::lighting::Lighting;
 use super::scene::{HairShading, MultipleScattering, RenderOptions, Scene};
 use super::shadow::{ShadowMap, NO_STRAND};
-use super::traced::SegmentGrid;
 use crate::fiber::dual::{DualTable, FarField};
 pub use crate::fiber::frame::FiberAngles;
 use crate::fiber::karis::Transmittance;
@@ -24,7 +24,7 @@ use crate::threads::pool;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Arc;
-use visibility::{Incident, Source};
+use visibility::{Incident, Need, Source};
 
 /// One shadow map per light (None: the light casts no shadow, or its map
 /// was skipped).
@@ -66,53 +66,6 @@ struct CullTally {
     max: f32,
 }
 
-/// The volume's multiple scattering as the shader reads it
-/// ([`super::volume`]). It varies over a cell of the volume's grid (and is
-/// filtered over three): on a strand it is read at its vertices, once per
-/// render, with the vertex's tangent (along its two neighbours) and seen
-/// from the eye, so the same whichever fragment asks first, and
-/// interpolated linearly along each segment.
-struct VolumeShading<'a> {
-    radiance: Arc<super::volume::VolumeRadiance>,
-    segments: &'a [super::setup::WorldSegment],
-    strands: &'a super::scene::Strands,
-    eye: Vec3,
-    /// Per strand vertex, the radiance there.
-    vertices: Vec<std::sync::OnceLock<Vec3>>,
-}
-
-impl VolumeShading<'_> {
-    /// The multiple scattering at `p` (tangent `t`, towards the eye `v`) of
-    /// `fiber`.
-    fn radiance(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
-        let Some(s) = self
-            .segments
-            .get(fiber.segment as usize)
-            .filter(|_| fiber.strand != NO_STRAND)
-        else {
-            return self.radiance.radiance(p, t, v);
-        };
-        let d = s.b - s.a;
-        let (first, last) = (
-            self.strands.offsets[s.strand as usize] as usize,
-            self.strands.offsets[s.strand as usize + 1] as usize - 1,
-        );
-        let at = |i: usize| {
-            *self.vertices[i].get_or_init(|| {
-                let pts = &self.strands.points;
-                let q = pts[i];
-                let t = (pts[(i + 1).min(last)] - pts[i.saturating_sub(1).max(first)])
-                    .normalize_or_zero();
-                self.radiance
-                    .radiance(q, t, (self.eye - q).normalize_or_zero())
-            })
-        };
-        let i = s.vertex as usize;
-        let u = ((p - s.a).dot(d) / d.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
-        at(i) * (1.0 - u) + at(i + 1) * u
-    }
-}
-
 /// Per-point buffers of [`Shader::shade_serial`]: flat `(N, 3)` tangents,
 /// view and light directions and kernel output, and per light the
 /// visibility and irradiance.
@@ -134,22 +87,25 @@ pub struct Shader<'a> {
     /// The environment variant of a KarisHair model (when there is an environment).
     env_model: Option<crate::fiber::karis::KarisHair<f32>>,
     shadows: &'a ShadowMaps,
-    /// Per light, the fiber count towards it (shadow model `density`, and
-    /// dual scattering).
-    counts: Vec<Option<FiberCount>>,
+    /// The fiber counts, the environment's directions and the strands'
+    /// grid for traced shadows ([`super::lighting`]).
+    lit: Arc<Lighting>,
     /// Dual scattering: the material's tables and d_f (ChiangHair, KarisHair).
     dual: Option<(Arc<DualTable>, f32)>,
     /// Whether hair's own shadow comes from the fiber count (shadow model
     /// `density`).
     count_shadows: bool,
-    /// The strands for ray-traced shadows (shadow model `traced`).
-    traced: Option<SegmentGrid>,
-    /// The environment as directional lights (ChiangHair, DEonHair).
-    env_lights: Option<super::env_light::EnvLights>,
     /// Light the opaque spheres reflect into the hair (dual scattering).
     bounce: Option<super::bounce::SphereBounce>,
     /// Multiple scattering carried through the volume (`volume`).
-    volume: Option<VolumeShading<'a>>,
+    volume: Option<Arc<super::volume::VolumeRadiance>>,
+    /// `shading = "split"`: the environment and the lights' scattered
+    /// light (dual scattering) are read at strand vertices, with the
+    /// volume's ([`at_vertices`]); only each light's unscattered light is
+    /// shaded per fragment.
+    split: bool,
+    /// The terms read at strand vertices (with a volume, or `split`).
+    at_vertices: Option<at_vertices::AtVertices<'a>>,
     /// Coverage samples shade the lights' single scattering by the near
     /// field at each sample's offset across its fiber (see [`near`]).
     near: bool,
@@ -182,9 +138,7 @@ impl<'a> Shader<'a> {
     pub fn new(
         scene: &'a Scene,
         shadows: &'a ShadowMaps,
-        counts: Vec<Option<FiberCount>>,
-        traced: Option<SegmentGrid>,
-        env_lights: Option<super::env_light::EnvLights>,
+        lit: Arc<Lighting>,
         cancel: Option<&'a std::sync::atomic::AtomicBool>,
         opts: &RenderOptions,
     ) -> Self {
@@ -224,14 +178,14 @@ impl<'a> Shader<'a> {
             hair,
             env_model,
             shadows,
-            counts,
+            lit,
             dual,
             count_shadows: m.count_shadows,
             near: m.near_field,
-            traced,
-            env_lights,
             bounce: None,
             volume: None,
+            split: opts.split_shading && !opts.vertex_shading,
+            at_vertices: None,
             cancel,
             f_max,
             cull_threshold,
@@ -246,8 +200,8 @@ impl<'a> Shader<'a> {
         if let (true, Some((dual, _))) = (opts.sphere_bounce, &self.dual) {
             self.bounce = super::bounce::SphereBounce::new(
                 self.scene,
-                &self.counts,
-                self.env_lights.as_ref(),
+                &self.lit.counts,
+                self.lit.env_lights.as_ref(),
                 dual,
                 opts.density_resolution,
             );
@@ -256,26 +210,25 @@ impl<'a> Shader<'a> {
     }
 
     /// With the multiple scattering of a volume solve added at every hair
-    /// point: on strands read at their vertices as seen from `eye`, once
-    /// per render, and interpolated along each segment (`segments`, the
-    /// world segments of the scene's strands, which the fibers index); on
-    /// cards at the point.
-    pub fn with_volume(
+    /// point, and the terms read at strand vertices (the volume's, and
+    /// under `split` the environment's and the scattered light's): on
+    /// strands at their vertices as seen from `eye`, once per render, and
+    /// interpolated along each segment (`segments`, the world segments of
+    /// the scene's strands, which the fibers index); on cards at the point.
+    pub fn with_vertex_terms(
         mut self,
         volume: Option<Arc<super::volume::VolumeRadiance>>,
         segments: &'a [super::setup::WorldSegment],
         eye: Vec3,
     ) -> Self {
-        let strands = &self.scene.strands;
-        self.volume = volume.map(|radiance| VolumeShading {
-            radiance,
-            segments,
-            strands,
-            eye,
-            vertices: (0..strands.points.len())
-                .map(|_| std::sync::OnceLock::new())
-                .collect(),
-        });
+        self.volume = volume;
+        if self.volume.is_some() || self.split {
+            self.at_vertices = Some(at_vertices::AtVertices::new(
+                segments,
+                &self.scene.strands,
+                eye,
+            ));
+        }
         self
     }
 
@@ -351,11 +304,12 @@ impl<'a> Shader<'a> {
         };
         out.fill(Vec3::ZERO);
         let mut tally = CullTally::default();
-        for source in self.sources() {
+        for source in self.sources(self.split) {
             // per point: direction, irradiance, unscattered fraction (0 where culled)
             for (i, p) in points.iter().enumerate() {
                 let v = Vec3::from_slice(&b.v[3 * i..]);
-                let inc = self.incident(source, *p, tangents[i], v, fibers[i], &mut tally);
+                let inc =
+                    self.incident(source, *p, tangents[i], v, fibers[i], Need::All, &mut tally);
                 let (l, e, vis) = inc.map_or((Vec3::ZERO, Vec3::ZERO, 0.0), |x| {
                     (x.dir, x.irradiance, x.unscattered)
                 });
@@ -365,6 +319,13 @@ impl<'a> Shader<'a> {
             self.add_light(&mut b, out);
         }
         self.flush(tally);
+        if self.split {
+            for (i, o) in out.iter_mut().enumerate() {
+                let v = Vec3::from_slice(&b.v[3 * i..]);
+                *o += self.vertex_terms(points[i], tangents[i], v, fibers[i]);
+            }
+            return;
+        }
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             // L = the fake normal n = normalize(V − T(T·V)); π · SH(n)⁺ · f
             use crate::fiber::karis::{simd::eval_range, KarisInputs};
@@ -479,13 +440,25 @@ impl<'a> Shader<'a> {
     /// unscattered fraction, or under dual scattering its effective far
     /// field for the way to the light.
     fn fiber_response(&self, v: Vec3, t: Vec3, inc: &Incident) -> Vec3 {
-        let (l, e, vis) = (inc.dir, inc.irradiance, inc.unscattered);
         if let (Some((dual, d_f)), Some(far)) = (&self.dual, self.far_field()) {
-            let g = FiberAngles::new(t, v, l);
-            return Vec3::from(dual.shade(far, &g, vis, inc.path, *d_f)) * e;
+            let g = FiberAngles::new(t, v, inc.dir);
+            return Vec3::from(dual.shade(far, &g, inc.unscattered, inc.path, *d_f))
+                * inc.irradiance;
         }
+        self.unscattered_response(v, t, inc)
+    }
+
+    /// The part of [`Self::fiber_response`] carried by the light that
+    /// arrives unscattered (under dual scattering, its direct part).
+    fn unscattered_response(&self, v: Vec3, t: Vec3, inc: &Incident) -> Vec3 {
+        let (l, e, vis) = (inc.dir, inc.irradiance, inc.unscattered);
         if vis <= 0.0 {
             return Vec3::ZERO;
+        }
+        if let (Some((dual, d_f)), Some(far)) = (&self.dual, self.far_field()) {
+            let g = FiberAngles::new(t, v, l);
+            let (direct, _) = dual.shade_parts(far, &g, vis, inc.path, *d_f, false);
+            return Vec3::from(direct) * e;
         }
         let f = match &self.hair {
             HairShading::Karis(k) => {
@@ -499,6 +472,17 @@ impl<'a> Shader<'a> {
             HairShading::DEon(d) => Vec3::from(d.eval(&l.to_array(), &v.to_array(), &t.to_array())),
         };
         f * e * vis
+    }
+
+    /// The part of [`Self::fiber_response`] carried by the light the fibers
+    /// on the way scattered (dual scattering; 0 otherwise).
+    fn scattered_response(&self, v: Vec3, t: Vec3, inc: &Incident) -> Vec3 {
+        let (Some((dual, d_f)), Some(far)) = (&self.dual, self.far_field()) else {
+            return Vec3::ZERO;
+        };
+        let g = FiberAngles::new(t, v, inc.dir);
+        let (_, scattered) = dual.shade_parts(far, &g, 0.0, inc.path, *d_f, true);
+        Vec3::from(scattered) * inc.irradiance
     }
 
     /// The far field dual scattering shades with (None: DEonHair).
@@ -532,11 +516,21 @@ impl<'a> Shader<'a> {
             return out;
         }
         let mut tally = CullTally::default();
-        for source in self.sources() {
-            let Some(inc) = self.incident(source, p, t, v, fiber, &mut tally) else {
+        // (split: the lights' unscattered light here, the rest at the vertices)
+        let need = if self.split {
+            Need::Unscattered
+        } else {
+            Need::All
+        };
+        for source in self.sources(self.split) {
+            let Some(inc) = self.incident(source, p, t, v, fiber, need, &mut tally) else {
                 continue;
             };
-            out += self.fiber_response(v, t, &inc);
+            out += if self.split {
+                self.unscattered_response(v, t, &inc)
+            } else {
+                self.fiber_response(v, t, &inc)
+            };
             if let (Some(list), HairShading::ChiangFar(c), Source::Light(_)) =
                 (unscattered.as_deref_mut(), &self.hair, source)
             {
@@ -549,6 +543,16 @@ impl<'a> Shader<'a> {
             }
         }
         self.flush(tally);
+        if !self.split {
+            out += self.smooth_terms(p, t, v, fiber);
+        }
+        out + self.vertex_terms(p, t, v, fiber)
+    }
+
+    /// The environment shaded by KarisHair's SH lobes and the light the
+    /// opaque spheres reflect into the hair, at `p`.
+    fn smooth_terms(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
+        let mut out = Vec3::ZERO;
         if let (Some(env), Some(m)) = (&self.scene.environment, &self.env_model) {
             out += Vec3::from(m.dispatch(EnvOne { v, t, sh: &env.sh }));
         }
@@ -557,10 +561,54 @@ impl<'a> Shader<'a> {
         {
             out += bounce.radiance(far, dual, p, fiber.radius, t, v);
         }
-        if let Some(vol) = &self.volume {
-            out += vol.radiance(p, t, v, fiber);
-        }
         out
+    }
+
+    /// Under `split`, everything but the lights' unscattered light: their
+    /// scattered light, the environment's directions, and
+    /// [`Self::smooth_terms`], at `p`.
+    fn split_terms(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
+        let mut out = Vec3::ZERO;
+        let mut tally = CullTally::default();
+        for source in self.sources(false) {
+            let light = matches!(source, Source::Light(_));
+            if light && self.dual.is_none() {
+                continue;
+            }
+            let need = if light { Need::Path } else { Need::All };
+            let Some(inc) = self.incident(source, p, t, v, fiber, need, &mut tally) else {
+                continue;
+            };
+            out += if light {
+                self.scattered_response(v, t, &inc)
+            } else {
+                self.fiber_response(v, t, &inc)
+            };
+        }
+        self.flush(tally);
+        out + self.smooth_terms(p, t, v, fiber)
+    }
+
+    /// The terms read at strand vertices ([`at_vertices`]): the volume's
+    /// multiple scattering, and under `split` [`Self::split_terms`]; at
+    /// the point itself on cards.
+    fn vertex_terms(&self, p: Vec3, t: Vec3, v: Vec3, fiber: Fiber) -> Vec3 {
+        let Some(cache) = &self.at_vertices else {
+            return Vec3::ZERO;
+        };
+        let terms = |q: Vec3, t: Vec3, v: Vec3, f: Fiber| {
+            let mut x = Vec3::ZERO;
+            if self.split {
+                x += self.split_terms(q, t, v, f);
+            }
+            if let Some(vol) = &self.volume {
+                x += vol.radiance(q, t, v);
+            }
+            x
+        };
+        cache
+            .read(p, fiber, terms)
+            .unwrap_or_else(|| terms(p, t, v, fiber))
     }
 }
 

@@ -167,7 +167,13 @@ mod tests {
             light_cull_threshold: 0.0,
             ..Default::default()
         };
-        let shader = Shader::new(&scene, &shadows, vec![None; 2], None, None, None, &opts);
+        let shader = Shader::new(
+            &scene,
+            &shadows,
+            Arc::new(crate::raster::lighting::Lighting::none(2)),
+            None,
+            &opts,
+        );
         let eye = scene.camera.position;
         let batched = shade_vertices(&scene, &shader, eye, None);
         let st = &scene.strands;

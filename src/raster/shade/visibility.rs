@@ -16,6 +16,19 @@ pub(super) enum Source {
     Environment(usize),
 }
 
+/// What [`Shader::incident`] computes of a source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Need {
+    /// Everything: the unscattered fraction and the way to the light.
+    All,
+    /// The unscattered fraction alone (`path` reads [`LightPath::OPEN`],
+    /// with `behind` where the counts hold it, so the dual-scattering
+    /// terms take the same form).
+    Unscattered,
+    /// The way to the light alone (`unscattered` reads 0: no shadow ray).
+    Path,
+}
+
 /// What of one source reaches a hair point: the one producer that every
 /// shading path (per point, in batches, per coverage sample) sums over.
 #[derive(Debug, Clone, Copy)]
@@ -34,19 +47,23 @@ pub(super) struct Incident {
 
 impl Shader<'_> {
     /// The sources in the order they are summed: the scene's lights, then
-    /// the environment's directions.
-    pub(super) fn sources(&self) -> impl Iterator<Item = Source> {
+    /// the environment's directions (unless `lights_only`).
+    pub(super) fn sources(&self, lights_only: bool) -> impl Iterator<Item = Source> {
         let lights = self.scene.lights.len();
-        let env = self.env_lights.as_ref().map_or(0, |e| e.lights.len());
+        let env = match (&self.lit.env_lights, lights_only) {
+            (Some(e), false) => e.lights.len(),
+            _ => 0,
+        };
         (0..lights)
             .map(Source::Light)
             .chain((0..env).map(Source::Environment))
     }
 
     /// What of `source` reaches hair point `p` on `fiber` with tangent `t`,
-    /// seen from `v`; `None` where light culling skips the light (counted
-    /// in `tally`).
+    /// seen from `v` (as much as `need` asks); `None` where light culling
+    /// skips the light (counted in `tally`).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn incident(
         &self,
         source: Source,
@@ -54,6 +71,7 @@ impl Shader<'_> {
         t: Vec3,
         v: Vec3,
         fiber: Fiber,
+        need: Need,
         tally: &mut super::CullTally,
     ) -> Option<Incident> {
         let dual = self.dual.is_some();
@@ -66,9 +84,16 @@ impl Shader<'_> {
                 }
                 const NO_MAP: &Option<Arc<ShadowMap>> = &None;
                 let sm = self.shadows.get(li).unwrap_or(NO_MAP);
-                let unscattered = self.hair_visibility(li, sm, p, t, v, fiber);
-                let path = match (dual, &self.counts[li]) {
-                    (true, Some(c)) => c.at_fiber_behind(p, fiber.radius, t, dir),
+                let unscattered = match need {
+                    Need::Path => 0.0,
+                    _ => self.hair_visibility(li, sm, p, t, v, fiber),
+                };
+                let path = match (dual, &self.lit.counts[li], need) {
+                    (true, Some(c), Need::Unscattered) => LightPath {
+                        behind: c.has_behind().then_some(0.0),
+                        ..LightPath::OPEN
+                    },
+                    (true, Some(c), _) => c.at_fiber_behind(p, fiber.radius, t, dir),
                     _ => LightPath::OPEN,
                 };
                 Some(Incident {
@@ -79,7 +104,7 @@ impl Shader<'_> {
                 })
             }
             Source::Environment(k) => {
-                let env = self.env_lights.as_ref()?;
+                let env = self.lit.env_lights.as_ref()?;
                 let (dir, irradiance) = env.lights[k].incident(p);
                 let unscattered =
                     env.clear(k, p) * (-env.unscattered_count(k, p, fiber.radius, t, dir)).exp();
@@ -121,7 +146,7 @@ impl Shader<'_> {
         if vis > 0.0 && self.traced_occluded(li, q, &fiber) {
             return 0.0;
         }
-        match self.counts.get(li).and_then(Option::as_ref) {
+        match self.lit.counts.get(li).and_then(Option::as_ref) {
             Some(c) if vis > 0.0 && self.count_shadows => {
                 let l = self.scene.lights[li].incident(p).0;
                 vis * (-c.unscattered_at(p, fiber.radius, t, l)).exp()
@@ -133,7 +158,7 @@ impl Shader<'_> {
     /// Whether a strand blocks light `li` from `o` (shadow model `traced`,
     /// a light that casts shadows), `fiber`'s own stretch left out.
     pub(super) fn traced_occluded(&self, li: usize, o: Vec3, fiber: &Fiber) -> bool {
-        let (Some(grid), Some(Some(_))) = (&self.traced, self.shadows.get(li)) else {
+        let (Some(grid), Some(Some(_))) = (&self.lit.traced, self.shadows.get(li)) else {
             return false;
         };
         let light = &self.scene.lights[li];
@@ -151,8 +176,8 @@ impl Shader<'_> {
     /// a diffuse surface does not see the spread; c: the fraction of the
     /// way clear of opaque geometry). Other models: 1 (the map holds hair).
     pub fn hair_transmittance(&self, li: usize, p: Vec3) -> Vec3 {
-        let count = self.counts.get(li).and_then(Option::as_ref);
-        if self.traced.is_some() {
+        let count = self.lit.counts.get(li).and_then(Option::as_ref);
+        if self.lit.traced.is_some() {
             let blocked = self.traced_occluded(li, p, &Fiber::NONE);
             let unscattered = if blocked { Vec3::ZERO } else { Vec3::ONE };
             return match (&self.dual, count) {

@@ -59,13 +59,14 @@ impl WordHash {
 }
 
 /// Hash of everything a shadow map draws (strands, cards with their alpha
-/// textures, spheres, meshes).
+/// textures, spheres, meshes) and of the fibers the cards stand for.
 pub fn geometry_hash(scene: &Scene) -> u64 {
     let mut h = WordHash::default();
-    let st = &scene.strands;
-    h.floats(st.points.iter().flat_map(|p| p.to_array()));
-    h.floats(st.radii.iter().copied());
-    h.floats(st.offsets.iter().map(|&o| f32::from_bits(o)));
+    for st in [&scene.strands, &scene.cards.fibers] {
+        h.floats(st.points.iter().flat_map(|p| p.to_array()));
+        h.floats(st.radii.iter().copied());
+        h.floats(st.offsets.iter().map(|&o| f32::from_bits(o)));
+    }
     let c = &scene.cards;
     h.floats(c.corners.iter().flat_map(|p| p.to_array()));
     h.floats(c.uvs.iter().flatten().copied());

@@ -1,0 +1,86 @@
+//! Terms of the shading that vary slowly along a strand, computed at its
+//! vertices and interpolated along each segment: the volume's multiple
+//! scattering, and with `shading = "split"` the environment and dual
+//! scattering's scattered light too.
+//!
+//! A vertex is computed once per render, by whichever fragment asks first,
+//! with the vertex's own position, tangent (along its two neighbours),
+//! radius and direction to the eye, so its value does not depend on the
+//! fragment or the thread. Along a segment the value at the parameter `u`
+//! of the point's projection onto it is `(1 − u)·x_a + u·x_b`.
+//!
+//! Why it holds: these terms change over the distance at which the fiber
+//! counts and the volume's cells change (several fiber diameters, a voxel),
+//! and with the tangent and the view direction, which are constant along a
+//! segment and nearly so between neighbours. What changes across a
+//! fiber's width or at a shadow's edge (a light's unscattered single
+//! scattering: its traced shadow ray, the near field at a sample's
+//! offset) stays per fragment. The error is measured per head in
+//! `docs/speed.md`.
+
+use super::Fiber;
+use crate::raster::scene::Strands;
+use crate::raster::setup::WorldSegment;
+use crate::raster::shadow::NO_STRAND;
+use glam::Vec3;
+use std::sync::OnceLock;
+
+/// Per strand vertex, a term computed on first use.
+pub(super) struct AtVertices<'a> {
+    segments: &'a [WorldSegment],
+    strands: &'a Strands,
+    eye: Vec3,
+    values: Vec<OnceLock<Vec3>>,
+}
+
+impl<'a> AtVertices<'a> {
+    /// Empty values for the vertices of `strands` (whose world segments
+    /// are `segments`), seen from `eye`.
+    pub fn new(segments: &'a [WorldSegment], strands: &'a Strands, eye: Vec3) -> Self {
+        Self {
+            segments,
+            strands,
+            eye,
+            values: (0..strands.points.len()).map(|_| OnceLock::new()).collect(),
+        }
+    }
+
+    /// The term at `p` on `fiber`: `f(q, t, v, fiber)` at the two vertices
+    /// of the fiber's segment (each computed once), interpolated; `None`
+    /// where the point lies on no strand (cards).
+    #[inline]
+    pub fn read(
+        &self,
+        p: Vec3,
+        fiber: Fiber,
+        f: impl Fn(Vec3, Vec3, Vec3, Fiber) -> Vec3,
+    ) -> Option<Vec3> {
+        if fiber.strand == NO_STRAND {
+            return None;
+        }
+        let s = self.segments.get(fiber.segment as usize)?;
+        let st = self.strands;
+        let (first, last) = (
+            st.offsets[s.strand as usize] as usize,
+            st.offsets[s.strand as usize + 1] as usize - 1,
+        );
+        let at = |i: usize| {
+            *self.values[i].get_or_init(|| {
+                let q = st.points[i];
+                let t = (st.points[(i + 1).min(last)] - st.points[i.saturating_sub(1).max(first)])
+                    .normalize_or_zero();
+                let vertex = Fiber {
+                    radius: st.radii[i],
+                    strand: s.strand,
+                    // the segment starting at the vertex (at the tip, the last one)
+                    segment: (i.min(last - 1) - s.strand as usize) as u32,
+                };
+                f(q, t, (self.eye - q).normalize_or_zero(), vertex)
+            })
+        };
+        let d = s.b - s.a;
+        let i = s.vertex as usize;
+        let u = ((p - s.a).dot(d) / d.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+        Some(at(i) * (1.0 - u) + at(i + 1) * u)
+    }
+}
