@@ -52,7 +52,7 @@ def cpu() -> str:
 def preset_scene(name: str) -> hs.Scene:
     """The head with its render settings reduced to what no preset sets."""
     scene = hs.Scene.load(DENSE / f"{name}.json")
-    scene.render = {k: v for k, v in scene.render.items() if k not in options.GROUPS}
+    scene.render = {k: v for k, v in scene.render.items() if k not in (*options.GROUPS, *options.PRESET_SETTINGS)}
     return scene
 
 

@@ -159,10 +159,10 @@ def test_06_old_flat_keys_translate_with_a_warning():
     with pytest.warns(DeprecationWarning, match=r"render.samples is deprecated: write render.transparency.coverage"
                                                 r".samples"):
         a = hs.Scene.from_dict(old)
-    # a section in the old spelling renders as it did: quality 'fast' for what it leaves out
+    # a section in the old spelling renders as it did: quality 'fast' for what it leaves out, shaded per pixel
     new = _scene_dict(quality="fast", transparency={"coverage": {"samples": 4}},
                       shadows={"opacity": {"map_size": 256}},
-                      multiple_scattering={"dual": {"backscatter": "two_stream"}})
+                      multiple_scattering={"dual": {"backscatter": "two_stream"}}, shading="pixel")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         b = hs.Scene.from_dict(new)
@@ -172,8 +172,10 @@ def test_06_old_flat_keys_translate_with_a_warning():
     # multiple scattering), so it renders bit-identically to them
     with pytest.warns(DeprecationWarning, match="read as it rendered before"):
         c = hs.Scene.from_dict(_scene_dict("karis", layers=4))
-    assert c.render == {"quality": "fast", "transparency": {"mlab": {"layers": 4}}, "shadows": "exponential"}
+    assert c.render == {"quality": "fast", "transparency": {"mlab": {"layers": 4}}, "shadows": "exponential",
+                        "shading": "pixel"}
     assert c.options()["multiple_scattering"] == "karis" and c.options()["shadow_model"] == "exponential"
+    assert c.options()["shading"] == "pixel"
     # the old 'auto' keyword: the preset decides, with a warning
     with pytest.warns(DeprecationWarning, match="multiple_scattering 'auto' is deprecated"):
         assert b.options(multiple_scattering="auto") == b.options()

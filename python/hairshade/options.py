@@ -310,26 +310,34 @@ def _group_doc(group: str) -> str:
 #: volume with its lobes: the demo and card heads within 7%, but with more
 #: error per pixel than dual's).
 PRESETS: Dict[str, Dict[str, Any]] = {
-    # interactive: MLAB, deep opacity maps, the model's own multiple scattering
+    # interactive: MLAB, deep opacity maps, the model's own multiple scattering, strands
+    # shaded per vertex (docs/speed.md: 2x faster at 1280x720, relMSE 3e-4 from per pixel;
+    # `lod: "auto"` is 3x faster again, with the level of detail's error)
     "fast": {
         "transparency": {"mlab": {"layers": 4}},
         "shadows": {"opacity": {}},
         "multiple_scattering": {"karis": "karis", "chiang": "none", "deon": "none"},
+        "shading": "vertex",
     },
     # the best error per second: 16 coverage samples, traced shadows, multiple scattering
-    # through the volume (ChiangHair) or dual scattering (KarisHair)
+    # through the volume (ChiangHair) or dual scattering (KarisHair), its slowly varying
+    # terms read at the strands' vertices (split shading: docs/speed.md)
     "balanced": {
         "transparency": {"coverage": {"samples": 16}},
         "shadows": {"traced": {}},
         "multiple_scattering": {"karis": "dual", "chiang": "volume", "deon": "none"},
+        "shading": "split",
     },
     # the closest: 64 coverage samples (the near field's noise falls with them)
     "accurate": {
         "transparency": {"coverage": {"samples": 64}},
         "shadows": {"traced": {}},
         "multiple_scattering": {"karis": "dual", "chiang": "volume", "deon": "none"},
+        "shading": "split",
     },
 }
+#: The settings besides the groups a preset may set.
+PRESET_SETTINGS: Tuple[str, ...] = ("shading", "lod")
 DEFAULT_QUALITY = "balanced"
 
 # -- old flat keys -------------------------------------------------------------------
@@ -389,7 +397,8 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_sec
     and ``sphere_bounce``). With ``whole_section`` (a scene file's
     ``render``), a section in the old spelling also keeps the old defaults
     of what it leaves out: quality 'fast' (MLAB, the model's own multiple
-    scattering) and shadows 'exponential', so that it renders as it did.
+    scattering), shadows 'exponential' and shading 'pixel', so that it
+    renders as it did.
     The speed-up switches are refused."""
     if not isinstance(settings, Mapping):
         raise SceneError(f"{where}: expected an object of render settings, got {type(settings).__name__}")
@@ -408,6 +417,8 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_sec
         out["quality"] = "fast"
         if "shadows" not in out and "shadow_model" not in settings:
             out["shadows"] = "exponential"
+        # the old default of what 'fast' now sets besides
+        out.setdefault("shading", "pixel")
     if out.get("multiple_scattering") == "auto":
         warnings.warn("render.multiple_scattering 'auto' is deprecated: leave it out (the quality preset "
                       "decides)", DeprecationWarning, stacklevel=3)
@@ -503,6 +514,8 @@ def resolve(settings: Mapping[str, Any], model: str, environment: bool) -> Dict[
             if f.applies is not None and not f.applies.when(ctx):
                 raise _fail(f.path, f.applies.why)
             native[f.native] = s[f.path]
+        elif f.path in preset:
+            native[f.native] = preset[f.path]
     return native
 
 
@@ -545,11 +558,12 @@ def markdown() -> str:
     for f in _fields_of(RenderSettings, ""):
         note = f" Only where it applies: {f.applies.why}." if f.applies else ""
         lines.append(f"| `{f.path}` | {rng(f.native, f.type)} | {f.doc}.{note} |")
-    lines += ["", "## Presets", "", "| quality | transparency | shadows | multiple scattering (KarisHair / ChiangHair / DEonHair) |",
-              "| --- | --- | --- | --- |"]
+    lines += ["", "## Presets", "", "| quality | transparency | shadows | multiple scattering (KarisHair / ChiangHair / "
+              "DEonHair) | shading | lod |", "| --- | --- | --- | --- | --- | --- |"]
     for q, p in PRESETS.items():
         ms = p["multiple_scattering"]
-        lines.append(f"| `{q}` | `{p['transparency']}` | `{p['shadows']}` | {ms['karis']} / {ms['chiang']} / {ms['deon']} |")
+        lines.append(f"| `{q}` | `{p['transparency']}` | `{p['shadows']}` | {ms['karis']} / {ms['chiang']} / "
+                     f"{ms['deon']} | {p.get('shading', 'pixel')} | {p.get('lod', 1.0)} |")
     return "\n".join(lines) + "\n"
 
 

@@ -474,6 +474,7 @@ pub fn render<'py>(
     d.set_item("shadow_maps_reused", stats.shadow_maps_reused)?;
     d.set_item("volume_ms", stats.volume_ms)?;
     d.set_item("volume_reused", stats.volume_reused)?;
+    d.set_item("lighting_reused", stats.lighting_reused)?;
     d.set_item("volume_voxels", stats.volume_voxels)?;
     d.set_item("volume_transmittance", stats.volume_transmittance)?;
     d.set_item("shadow_maps_skipped", stats.shadow_maps_skipped)?;

@@ -28,6 +28,10 @@ impl MemoryEstimate {
     }
 }
 
+/// Bytes of the traced shadows' segment grid per segment (measured 97 on
+/// the demo head; a segment across the cells' diagonals reaches more).
+const TRACED_BYTES_PER_SEGMENT: u64 = 128;
+
 /// Bytes of one shadow map at `n²` texels while it is built: first-hair
 /// and opaque depth (2 floats per texel), up to 8 per-thread depth buffers
 /// merged by `min`, and with the opacity model `SLABS` floats and
@@ -99,15 +103,21 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
         ));
     }
     if m.traced {
-        // Capsules and their cell lists.
-        items.push(("traced segment grid", segments * 64));
+        // Capsules (40 bytes) and their cell lists (4 bytes a cell a
+        // capsule reaches, ~8 at cells a quarter of a segment long: 97
+        // bytes a segment on the demo head), and up to 256³ list starts.
+        items.push(("traced segment grid", segments * TRACED_BYTES_PER_SEGMENT));
     }
     if m.volume {
         // The medium, the light's integer tallies and its fluence, and the
         // segment grid its calibration traces through (the traced shadows'
         // when there is one).
         let s = super::volume::VolumeSettings::of(opts);
-        let grid = if m.traced { 0 } else { segments * 64 };
+        let grid = if m.traced {
+            0
+        } else {
+            segments * TRACED_BYTES_PER_SEGMENT
+        };
         items.push((
             "volume scattering",
             super::volume::bytes_estimate(scene, &s) as u64 + grid,

@@ -88,6 +88,9 @@ pub struct RenderStats {
     pub light_cull_max_skipped: f32,
     /// Shadow maps taken from an earlier render (see `reuse_shadow_maps`).
     pub shadow_maps_reused: usize,
+    /// Whether the fiber counts, the environment's directions and the
+    /// traced shadows' grid were those of an earlier render ([`lighting`]).
+    pub lighting_reused: bool,
     /// Shadowed lights whose map was not built: light culling skips them at
     /// every hair point (see `lights_without_visible_effect`).
     pub shadow_maps_skipped: usize,
@@ -184,7 +187,8 @@ pub fn render_with_progress(
     // 3. Segments, frustum culling, per-vertex shading.
     let t1 = std::time::Instant::now();
     let methods = methods::Methods::new(scene, opts);
-    let (lit, _) = lighting::Lighting::cached(scene, opts, &methods, &world);
+    let (lit, lighting_reused) = lighting::Lighting::cached(scene, opts, &methods, &world);
+    stats.lighting_reused = lighting_reused;
     let volume = if methods.volume {
         let tv = std::time::Instant::now();
         let input = volume::SolveInput {

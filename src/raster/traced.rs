@@ -15,52 +15,32 @@ pub struct SegmentGrid {
     /// CSR: the segments of cell c are `items[start[c]..start[c + 1]]`.
     start: Vec<u32>,
     items: Vec<u32>,
-    /// Per item, its capsule's cheap tests ([`Bound`]), read in the cell's
-    /// order.
-    bounds: Vec<Bound>,
     segments: Vec<Capsule>,
 }
 
 #[derive(Debug, Clone, Copy)]
 struct Capsule {
+    /// The axis `a + s·u`, s in [0, 1].
     a: Vec3,
-    b: Vec3,
-    r: f32,
+    /// The radius squared.
+    r2: f32,
+    u: Vec3,
+    /// The radius squared of a sphere around the axis's midpoint holding
+    /// the capsule (padded by 1e-4 relative, so that rounding never makes
+    /// the sphere reject a ray the capsule test would accept).
+    reach2: f32,
     strand: u32,
     /// Index in the world segments.
     segment: u32,
-    /// The radius squared of a sphere around the capsule's centre holding
-    /// it (padded by 1e-4 relative, so that rounding never makes the
-    /// sphere reject a ray the capsule test would accept).
-    reach2: f32,
 }
 
-/// What the cheap tests of a capsule read: its axis `a + s·u` (s in
-/// [0, 1]), radius squared, and the radius squared of a sphere around it.
-#[derive(Debug, Clone, Copy)]
-struct Bound {
-    a: Vec3,
-    r2: f32,
-    u: Vec3,
-    reach2: f32,
-}
-
-impl Bound {
-    fn of(c: &Capsule) -> Self {
-        Bound {
-            a: c.a,
-            r2: c.r * c.r,
-            u: c.b - c.a,
-            reach2: c.reach2,
-        }
-    }
-
-    /// Whether the ray (o, unit d, t in [0, t_max]) may meet the capsule:
-    /// it passes the bounding sphere, and the ray's line passes the axis's
-    /// line within the radius (both lines unbounded: a lower bound of the
-    /// distance between ray and segment). Both are padded by 1e-4
-    /// relative, so that rounding never rejects a ray [`hits_capsule`]
-    /// would accept.
+impl Capsule {
+    /// Whether the ray (o, unit d, t in [0, t_max]) may meet the capsule
+    /// (the cheap tests before [`hits_capsule`]): it passes the bounding
+    /// sphere, and the ray's line passes the axis's line within the radius
+    /// (both lines unbounded: a lower bound of the distance between ray
+    /// and segment). Both are padded by 1e-4 relative, so that rounding
+    /// never rejects a ray [`hits_capsule`] would accept.
     #[inline]
     fn may_hit(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         let w = self.a + 0.5 * self.u - o;
@@ -75,7 +55,7 @@ impl Bound {
 }
 
 impl SegmentGrid {
-    /// The grid of `segments`, cells half the mean segment length wide (at most
+    /// The grid of `segments`, cells a quarter of the mean segment length wide (at most
     /// 256 cells a side); None without segments.
     pub fn new(segments: &[WorldSegment]) -> Option<Self> {
         let caps: Vec<Capsule> = segments
@@ -89,11 +69,11 @@ impl SegmentGrid {
                 let reach = (0.5 * (s.b - s.a).length() + r) * (1.0 + 1e-4) + 1e-30;
                 Capsule {
                     a: s.a,
-                    b: s.b,
-                    r,
+                    r2: r * r,
+                    u: s.b - s.a,
+                    reach2: reach * reach,
                     strand: s.strand,
                     segment: i as u32,
-                    reach2: reach * reach,
                 }
             })
             .collect();
@@ -103,17 +83,19 @@ impl SegmentGrid {
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         let mut mean_len = 0.0f64;
         for c in &caps {
-            lo = lo.min(c.a.min(c.b) - Vec3::splat(c.r));
-            hi = hi.max(c.a.max(c.b) + Vec3::splat(c.r));
-            mean_len += (c.b - c.a).length() as f64;
+            let (b, r) = (c.a + c.u, c.r2.sqrt());
+            lo = lo.min(c.a.min(b) - Vec3::splat(r));
+            hi = hi.max(c.a.max(b) + Vec3::splat(r));
+            mean_len += c.u.length() as f64;
         }
         mean_len /= caps.len() as f64;
         let extent = (hi - lo).max_element().max(1e-6);
-        // Half the mean segment length: fewer candidates per cell than at
-        // one length, for twice the cells on the way (1280x720 demo head,
-        // balanced, split shading: 1.73 s against 1.94 s at one length,
-        // 1.69-1.74 s at 0.35 and 1.77 s at 0.25).
-        let cell = (0.5 * mean_len as f32).max(extent / 256.0).max(1e-6);
+        // A quarter of the mean segment length: fewer candidates per cell,
+        // for more cells on the way and more list entries (1280x720 demo
+        // head, balanced, split shading: 1.31 s against 1.34-1.40 s at
+        // 0.35 and 1.39-1.45 s at 0.5; 97 bytes a segment against 60 at
+        // 0.5).
+        let cell = (0.25 * mean_len as f32).max(extent / 256.0).max(1e-6);
         let dims = ((hi - lo) / cell)
             .to_array()
             .map(|e| (e.ceil() as usize).max(1));
@@ -122,24 +104,30 @@ impl SegmentGrid {
             let g = (p - lo) / cell;
             [0, 1, 2].map(|k| (g[k].max(0.0) as usize).min(dims[k] - 1))
         };
-        // Each capsule into the cells of its bounding box that it may
-        // reach: those whose centre lies within the cell's half diagonal
-        // plus the radius of the segment (a cell farther holds no point of
-        // the capsule; padded by 1e-3 of a cell against rounding). A
-        // segment across the cells' diagonal touches ~5 of its box's 27.
-        let half_diagonal = 0.5 * 3f32.sqrt() * cell * 1.001;
+        // Each capsule into the cells its axis passes within its radius
+        // of: those whose box, grown by the radius (and 1e-3 of a cell
+        // against rounding), the segment crosses (a slab test). The grown
+        // box holds every point within the radius of the cell, so a cell
+        // left out holds no point of the capsule.
+        let pad = 1e-3 * cell;
         let mut lists: Vec<(u32, u32)> = Vec::new();
         for (i, c) in caps.iter().enumerate() {
+            let (end, r) = (c.a + c.u, c.r2.sqrt());
             let (a, b) = (
-                cell_of(c.a.min(c.b) - Vec3::splat(c.r)),
-                cell_of(c.a.max(c.b) + Vec3::splat(c.r)),
+                cell_of(c.a.min(end) - Vec3::splat(r)),
+                cell_of(c.a.max(end) + Vec3::splat(r)),
             );
-            let reach = half_diagonal + c.r;
+            let grow = Vec3::splat(r + pad);
             for z in a[2]..=b[2] {
                 for y in a[1]..=b[1] {
                     for x in a[0]..=b[0] {
-                        let centre = lo + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * cell;
-                        if segment_distance2(c.a, c.b, centre) <= reach * reach {
+                        let lo_c = lo + Vec3::new(x as f32, y as f32, z as f32) * cell;
+                        if segment_crosses_box(
+                            c.a,
+                            end,
+                            lo_c - grow,
+                            lo_c + Vec3::splat(cell) + grow,
+                        ) {
                             lists.push((((z * dims[1] + y) * dims[0] + x) as u32, i as u32));
                         }
                     }
@@ -155,17 +143,12 @@ impl SegmentGrid {
             start[c + 1] += start[c];
         }
         let items: Vec<u32> = lists.into_iter().map(|(_, i)| i).collect();
-        let bounds = items
-            .iter()
-            .map(|&i| Bound::of(&caps[i as usize]))
-            .collect();
         Some(Self {
             origin: lo,
             cell,
             dims,
             start,
             items,
-            bounds,
             segments: caps,
         })
     }
@@ -173,7 +156,6 @@ impl SegmentGrid {
     /// Bytes held by the grid.
     pub fn bytes(&self) -> usize {
         (self.start.len() + self.items.len()) * 4
-            + self.bounds.len() * std::mem::size_of::<Bound>()
             + self.segments.len() * std::mem::size_of::<Capsule>()
     }
 
@@ -220,12 +202,12 @@ impl SegmentGrid {
             let ci =
                 ((c[2] as usize * self.dims[1]) + c[1] as usize) * self.dims[0] + c[0] as usize;
             let range = self.start[ci] as usize..self.start[ci + 1] as usize;
-            for (&i, bound) in self.items[range.clone()].iter().zip(&self.bounds[range]) {
-                if !bound.may_hit(o, d, t_max) {
-                    continue;
-                }
+            for &i in &self.items[range] {
                 let s = &self.segments[i as usize];
-                if !fiber.is_local(s.strand, s.segment) && hits_capsule(o, d, t_max, s) {
+                if s.may_hit(o, d, t_max)
+                    && !fiber.is_local(s.strand, s.segment)
+                    && hits_capsule(o, d, t_max, s)
+                {
                     return true;
                 }
             }
@@ -251,17 +233,27 @@ impl SegmentGrid {
     }
 }
 
-/// The squared distance from `p` to the segment `a`–`b`.
+/// Whether the segment `a`–`b` meets the box `[lo, hi]` (slab test over
+/// the segment's parameter in [0, 1]).
 #[inline]
-fn segment_distance2(a: Vec3, b: Vec3, p: Vec3) -> f32 {
+fn segment_crosses_box(a: Vec3, b: Vec3, lo: Vec3, hi: Vec3) -> bool {
     let u = b - a;
-    let c = u.length_squared();
-    let t = if c > 0.0 {
-        ((p - a).dot(u) / c).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p - (a + u * t)).length_squared()
+    let (mut t0, mut t1) = (0.0f32, 1.0f32);
+    for k in 0..3 {
+        if u[k] == 0.0 {
+            if a[k] < lo[k] || a[k] > hi[k] {
+                return false;
+            }
+            continue;
+        }
+        let (e, f) = ((lo[k] - a[k]) / u[k], (hi[k] - a[k]) / u[k]);
+        t0 = t0.max(e.min(f));
+        t1 = t1.min(e.max(f));
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
 }
 
 /// Whether the ray (o, unit d, t in (0, t_max]) meets the capsule: its
@@ -270,7 +262,7 @@ fn segment_distance2(a: Vec3, b: Vec3, p: Vec3) -> f32 {
 #[inline]
 fn hits_capsule(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> bool {
     // Closest points between the ray and the segment (Ericson, 5.1.9).
-    let u = s.b - s.a;
+    let u = s.u;
     let w = o - s.a;
     // A ray that starts inside the capsule leaves it unblocked: a point on
     // a visible fiber surface never lies inside another fiber (the camera
@@ -284,7 +276,7 @@ fn hits_capsule(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> bool {
     } else {
         0.0
     };
-    if (w - u * t0).length_squared() <= s.r * s.r {
+    if (w - u * t0).length_squared() <= s.r2 {
         return false;
     }
     let (a, b, c) = (1.0, d.dot(u), u.dot(u));
@@ -306,7 +298,7 @@ fn hits_capsule(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> bool {
         tc = ((b * sc + e) / c).clamp(0.0, 1.0);
     }
     let gap = (o + d * sc) - (s.a + u * tc);
-    gap.length_squared() <= s.r * s.r
+    gap.length_squared() <= s.r2
 }
 
 #[cfg(test)]
@@ -326,7 +318,7 @@ mod tests {
     fn ray_segment_gap(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> f32 {
         let mut best = f32::INFINITY;
         for i in 0..=400 {
-            let q = s.a + (s.b - s.a) * (i as f32 / 400.0);
+            let q = s.a + s.u * (i as f32 / 400.0);
             let t = (q - o).dot(d).clamp(0.0, t_max);
             best = best.min((o + d * t - q).length());
         }
@@ -369,14 +361,14 @@ mod tests {
             let gaps: Vec<f32> = grid
                 .segments
                 .iter()
-                .filter(|c| ray_segment_gap(o, d, 0.0, c) > c.r)
-                .map(|c| ray_segment_gap(o, d, f32::INFINITY, c) - c.r)
+                .filter(|c| ray_segment_gap(o, d, 0.0, c) > c.r2.sqrt())
+                .map(|c| ray_segment_gap(o, d, f32::INFINITY, c) - c.r2.sqrt())
                 .collect();
             if gaps.iter().any(|g| g.abs() < 2e-4)
                 || grid
                     .segments
                     .iter()
-                    .any(|c| (ray_segment_gap(o, d, 0.0, c) - c.r).abs() < 2e-4)
+                    .any(|c| (ray_segment_gap(o, d, 0.0, c) - c.r2.sqrt()).abs() < 2e-4)
             {
                 continue;
             }

@@ -106,13 +106,15 @@ impl Shader<'_> {
             Source::Environment(k) => {
                 let env = self.lit.env_lights.as_ref()?;
                 let (dir, irradiance) = env.lights[k].incident(p);
-                let unscattered =
-                    env.clear(k, p) * (-env.unscattered_count(k, p, fiber.radius, t, dir)).exp();
-                let path = if dual {
-                    env.path(k, p, fiber.radius, t, dir)
+                // (the way's `clear` is the one `env.clear` reads, in one pass)
+                let (path, clear) = if dual {
+                    let path = env.path(k, p, fiber.radius, t, dir);
+                    (path, path.clear)
                 } else {
-                    LightPath::OPEN
+                    (LightPath::OPEN, env.clear(k, p))
                 };
+                let unscattered =
+                    clear * (-env.unscattered_count(k, p, fiber.radius, t, dir)).exp();
                 Some(Incident {
                     dir,
                     irradiance,
