@@ -97,3 +97,19 @@ def test_03_lighting_reuse_is_exact_and_keyed_on_what_it_depends_on():
         hs.render(hs.Scene.from_dict(d), width=64, height=36, progress=False)
         _, st = hs.render(hs.Scene.from_dict(e), return_stats=True, progress=False)
         assert not st["lighting_reused"], change
+
+
+# 04: cards are shaded per pixel whatever the strands' shading
+@pytest.mark.parametrize("transparency", ["mlab", "coverage"])
+def test_04_cards_shaded_per_pixel_under_vertex_shading(transparency):
+    """Under per-vertex shading the strands carry their radiance and the
+    cards are shaded per pixel, in the batch that per-pixel shading uses:
+    the card head (cards only) renders the same bits either way (under
+    coverage samples its cards once came out black)."""
+    d = json.loads((DENSE / "card_head.json").read_text())
+    d["camera"]["resolution"] = [160, 90]
+    d["render"] = {"quality": "balanced", "transparency": transparency}
+    s = hs.Scene.from_dict(d)
+    pixel = hs.render(s, shading="pixel", progress=False)
+    assert pixel.mean() > 0.01
+    np.testing.assert_array_equal(hs.render(s, shading="vertex", progress=False), pixel)

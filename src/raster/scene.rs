@@ -236,7 +236,9 @@ pub struct RenderOptions {
     pub skip_unused: bool,
     /// Reuse the shadow maps of an earlier render when the geometry, the
     /// light and the shadow settings are unchanged (exact: maps are
-    /// deterministic); see `shadow::CACHE_MAPS` for the memory held.
+    /// deterministic); see `shadow::CACHE_MAPS` for the memory held. The
+    /// fiber counts, environment directions and traced grid of the last
+    /// render likewise ([`super::lighting`]).
     pub reuse_shadow_maps: bool,
     /// Light culling: radiance below which a light's bounded contribution
     /// (irradiance × the BSDF's upper bound) at a shading point is skipped

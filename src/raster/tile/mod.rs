@@ -196,7 +196,7 @@ impl<'a> Tile<'a> {
             surface: mem.surface,
             layers,
             samples: None,
-            deferred: !ctx.opts.vertex_shading && ctx.shader.batches(),
+            deferred: ctx.shader.batches(),
             pending: mem.pending,
             hair: None,
             spare_hair: mem.hair,
@@ -274,7 +274,8 @@ impl<'a> Tile<'a> {
         if buf.cover(k, depth, id, |s| covers(pix[s])) {
             self.fragments += 1;
             self.pending.push(k, depth, 1.0, p, t, fiber);
-            self.pending.color.push(color.unwrap_or(Vec3::ZERO));
+            // NaN: not shaded yet (a card, or per-fragment shading)
+            self.pending.color.push(color.unwrap_or(Vec3::NAN));
             self.pending.line.push(line);
         }
     }
@@ -299,7 +300,9 @@ impl<'a> Tile<'a> {
             h.add(k, depth, alpha);
         }
         if self.deferred {
+            // shaded in the batch unless it carries its per-vertex radiance
             self.pending.push(k, depth, alpha, p, t, fiber);
+            self.pending.color.push(color.unwrap_or(Vec3::NAN));
             return;
         }
         let c = color.unwrap_or_else(|| {
@@ -495,7 +498,8 @@ struct Pending {
     p: Vec<Vec3>,
     t: Vec<Vec3>,
     fiber: Vec<Fiber>,
-    /// Radiance (coverage mode: per-vertex radiance, or filled by shading).
+    /// Radiance: the interpolated per-vertex radiance, or NaN until the
+    /// fragment is shaded.
     color: Vec<Vec3>,
     /// Coverage mode: the screen line giving a sample's offset across the
     /// fiber ([`offset_line`]; NaN for cards), and with the near field the

@@ -4,9 +4,9 @@
 //! composited over the opaque surface; non-finite pixels become 0 and are
 //! counted).
 
-use super::{Tile, TileMemory, TileResult};
+use super::{Pending, Tile, TileMemory, TileResult};
 use crate::raster::bin::TILE;
-use crate::raster::shade::Fiber;
+use crate::raster::shade::{Fiber, Shader};
 use crate::raster::shadow::ShadowModel;
 use glam::Vec3;
 
@@ -21,13 +21,13 @@ impl Tile<'_> {
         if !self.deferred {
             return;
         }
-        let p = &self.pending;
-        let mut colors = vec![Vec3::ZERO; p.k.len()];
-        self.ctx
-            .shader
-            .shade_serial(&p.p, &p.t, &p.fiber, self.ctx.view.eye, &mut colors);
-        for (i, c) in colors.into_iter().enumerate() {
-            self.layers.add(p.k[i] as usize, p.depth[i], c, p.alpha[i]);
+        let p = &mut self.pending;
+        // the fragments without per-vertex radiance, in one batch; then all in order
+        let todo: Vec<usize> = (0..p.k.len()).filter(|&i| p.color[i].is_nan()).collect();
+        shade_batch(self.ctx.shader, self.ctx.view.eye, p, &todo);
+        for i in 0..p.k.len() {
+            self.layers
+                .add(p.k[i] as usize, p.depth[i], p.color[i], p.alpha[i]);
         }
     }
 
@@ -37,14 +37,13 @@ impl Tile<'_> {
         let Some((_, buf)) = &self.samples else {
             return;
         };
-        if self.ctx.opts.vertex_shading {
-            // every fragment already carries its interpolated radiance
-            return;
-        }
         let p = &mut self.pending;
         let mut counts = vec![0u32; p.k.len()];
         buf.counts(&mut counts);
-        let visible: Vec<usize> = (0..counts.len()).filter(|&i| counts[i] > 0).collect();
+        // (strand fragments under per-vertex shading carry their radiance)
+        let visible: Vec<usize> = (0..counts.len())
+            .filter(|&i| counts[i] > 0 && p.color[i].is_nan())
+            .collect();
         let eye = self.ctx.view.eye;
         p.near.clear();
         p.near.resize(p.k.len(), (0, 0));
@@ -67,16 +66,7 @@ impl Tile<'_> {
                 };
             }
         } else if self.ctx.shader.batches() {
-            let pts: Vec<Vec3> = visible.iter().map(|&i| p.p[i]).collect();
-            let tan: Vec<Vec3> = visible.iter().map(|&i| p.t[i]).collect();
-            let fib: Vec<Fiber> = visible.iter().map(|&i| p.fiber[i]).collect();
-            let mut colors = vec![Vec3::ZERO; visible.len()];
-            self.ctx
-                .shader
-                .shade_serial(&pts, &tan, &fib, eye, &mut colors);
-            for (&i, c) in visible.iter().zip(colors) {
-                p.color[i] = c;
-            }
+            shade_batch(self.ctx.shader, eye, p, &visible);
         } else {
             for &i in &visible {
                 p.color[i] = self.ctx.shader.shade(
@@ -179,5 +169,21 @@ impl Tile<'_> {
             sorted: self.sorted,
         };
         (result, memory)
+    }
+}
+
+/// Shades the pending fragments `which` on the model's vector kernel (one
+/// batch) into their `color`.
+fn shade_batch(shader: &Shader, eye: Vec3, p: &mut Pending, which: &[usize]) {
+    if which.is_empty() {
+        return;
+    }
+    let pts: Vec<Vec3> = which.iter().map(|&i| p.p[i]).collect();
+    let tan: Vec<Vec3> = which.iter().map(|&i| p.t[i]).collect();
+    let fib: Vec<Fiber> = which.iter().map(|&i| p.fiber[i]).collect();
+    let mut colors = vec![Vec3::ZERO; which.len()];
+    shader.shade_serial(&pts, &tan, &fib, eye, &mut colors);
+    for (&i, c) in which.iter().zip(colors) {
+        p.color[i] = c;
     }
 }
