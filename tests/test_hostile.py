@@ -613,3 +613,30 @@ def test_12b_nonsense_refused_before_work(tmp_path):
         out = subprocess.run([sys.executable, "-m", "hairshade", "bench", *arg], capture_output=True, text=True,
                              timeout=60, env=dict(os.environ, PYTHONPATH=PYTHON_DIR))
         assert out.returncode == 2 and arg[0] in out.stderr and "expected a whole number >= 1" in out.stderr, out.stderr
+
+
+def test_14b_numpy_numbers_and_exact_bounds_in_messages(tmp_path):
+    """numpy's scalars are numbers (`layers=np.int64(8)` was refused as
+    "expected a number"; np.bool_ still is), a value past the 1e18 bound is
+    printed as it was given (1.0000001e18 read "got 1e+18"), and
+    read_exr's max_pixels below 1 is refused by name (-1 raised a bare
+    OverflowError)."""
+    d = json.loads((Path(hs.__file__).parent / "examples" / "single_strand.json").read_text())
+    s = hs.Scene.from_dict(d)
+    want = hs.render(s, width=32, height=18, transparency={"mlab": {"layers": 8}}, progress=False)
+    got = hs.render(s, width=32, height=18, transparency={"mlab": {"layers": np.int64(8)}}, progress=False)
+    np.testing.assert_array_equal(got, want)
+    with pytest.raises(hs.SceneError, match="layers: expected a number, got np.True_"):
+        hs.render(s, width=32, height=18, transparency={"mlab": {"layers": np.bool_(True)}}, progress=False)
+    e = json.loads(json.dumps(d))
+    e["camera"]["fov"] = np.float32(40.0)
+    assert hs.Scene.from_dict(e).camera["fov"] == 40.0
+    e["camera"]["position"][0] = 1.0000001e18
+    with pytest.raises(hs.SceneError, match=r"camera.position\[0\]: must be at most 1e\+18 .* got 1.0000001e\+18"):
+        hs.Scene.from_dict(e)
+    path = tmp_path / "one.exr"
+    hs.write_exr(str(path), np.ones((2, 2, 3), np.float32))
+    for bad in (-1, 0, 2.5, True):
+        with pytest.raises(ValueError, match="max_pixels: expected a whole number >= 1 or None"):
+            hs.read_exr(path, max_pixels=bad)
+    assert hs.read_exr(path, max_pixels=np.int64(4)).shape == (2, 2, 3)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 import os
 from typing import TYPE_CHECKING, Any, Literal, overload
 
@@ -142,8 +143,12 @@ def read_exr(path: str | os.PathLike[str], max_pixels: int | None = None) -> Ima
     """Reads the RGB channels of an OpenEXR file -> (H, W, 3) float32.
     A file declaring more than ``max_pixels`` (default 2^28) pixels, or
     more than its size can hold, is refused (ValueError) before its pixels
-    are allocated; MemoryError when they cannot be."""
-    w, h, data = _native.read_exr(os.fspath(path), max_pixels)
+    are allocated; MemoryError when they cannot be. ``max_pixels``: a
+    whole number >= 1, or None."""
+    if max_pixels is not None and (isinstance(max_pixels, (bool, np.bool_))
+                                   or not isinstance(max_pixels, numbers.Integral) or max_pixels < 1):
+        raise ValueError(f"max_pixels: expected a whole number >= 1 or None, got {max_pixels!r:.80}")
+    w, h, data = _native.read_exr(os.fspath(path), None if max_pixels is None else int(max_pixels))
     return data.reshape(h, w, 3)
 
 

@@ -80,6 +80,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import numbers
 import stat
 from dataclasses import dataclass, field
 from typing import Any, NoReturn
@@ -310,7 +311,8 @@ class _Ctx:
             self.fail(f"{path}.{sorted(extra)[0]}" if path else sorted(extra)[0], f"unknown field (allowed: {', '.join(sorted(keys))})")
 
     def num(self, v: Any, path: str, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False) -> float:
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
+        # numbers.Real: int, float and numpy's scalars (np.int64, np.float32), not bool
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
             self.fail(path, f"expected a number, got {v!r:.80}")
         try:
             x = float(v)
@@ -319,7 +321,7 @@ class _Ctx:
         if not math.isfinite(x):
             self.fail(path, f"must be finite, got {v!r}")
         if abs(x) > MAX_MAGNITUDE:
-            self.fail(path, f"must be at most {MAX_MAGNITUDE:g} in magnitude (the renderer computes in float32), got {x:g}")
+            self.fail(path, f"must be at most {MAX_MAGNITUDE:g} in magnitude (the renderer computes in float32), got {x!r}")
         if x < lo or x > hi or (lo_open and x == lo):
             lo_s = "(" if lo_open else "["
             self.fail(path, f"must be in {lo_s}{lo}, {hi}], got {x}")

@@ -168,6 +168,15 @@ fn number(v: &Bound<'_, PyAny>) -> Option<f64> {
     if v.is_instance_of::<PyInt>() || v.is_instance_of::<PyFloat>() {
         return v.extract::<f64>().ok();
     }
+    // numpy's scalars (np.int64(8), np.float32(0.5)) and other `numbers.Real`
+    let real = v
+        .py()
+        .import("numbers")
+        .and_then(|m| m.getattr("Real"))
+        .ok()?;
+    if v.is_instance(&real).ok()? {
+        return v.call_method0("__float__").ok()?.extract::<f64>().ok();
+    }
     None
 }
 
