@@ -640,3 +640,22 @@ def test_14b_numpy_numbers_and_exact_bounds_in_messages(tmp_path):
         with pytest.raises(ValueError, match="max_pixels: expected a whole number >= 1 or None"):
             hs.read_exr(path, max_pixels=bad)
     assert hs.read_exr(path, max_pixels=np.int64(4)).shape == (2, 2, 3)
+
+
+def test_15b_demo_sizes_refused_by_name_and_every_option_documented():
+    """`demo --width 3` failed with "got 0" (its warm-up renders at a
+    quarter of the size, now at least 1 pixel); sizes and spp below 1 are
+    refused naming the option, before any work, and every option of
+    `demo` has help text."""
+    env = dict(os.environ, PYTHONPATH=PYTHON_DIR)
+    for arg in ("--width", "--height", "--spp"):
+        out = subprocess.run([sys.executable, "-m", "hairshade", "demo", arg, "0"], capture_output=True, text=True,
+                             timeout=60, env=env)
+        assert out.returncode == 2 and f"argument {arg}: expected a whole number >= 1, got 0" in out.stderr, out.stderr
+    out = subprocess.run([sys.executable, "-m", "hairshade", "demo", "--help"], capture_output=True, text=True,
+                         timeout=60, env=env)
+    options = [line.split()[0] for line in out.stdout.splitlines() if line.strip().startswith("--")]
+    assert set(options) == {"--scene", "--out", "--width", "--height", "--spp", "--exposure"}, options
+    for line in out.stdout.splitlines():
+        if line.strip().startswith("--"):
+            assert len(line.split()) > 2, f"no help: {line}"

@@ -344,7 +344,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     scene = Scene.load(args.scene)
     w, h = args.width, args.height
     print(f"demo: {args.scene}, {scene.strand_count} strands, {w}x{h}")
-    render(scene, width=w // 4, height=h // 4, progress=False)  # warm-up (thread pool, page faults)
+    render(scene, width=max(w // 4, 1), height=max(h // 4, 1), progress=False)  # warm-up (thread pool, page faults)
     t = time.perf_counter()
     raster = render(scene, width=w, height=h)
     t_raster = time.perf_counter() - t
@@ -428,12 +428,13 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--no-flip", action="store_true", help="relMSE only (FLIP needs hairshade[flip])")
     c.set_defaults(func=cmd_compare)
     dm = sub.add_parser("demo", help="render the demo head with the rasterizer and Mitsuba")
-    dm.add_argument("--scene", default=os.path.join(os.path.dirname(__file__), "examples", "strand_head.json"))
-    dm.add_argument("--out", default="out")
-    dm.add_argument("--width", type=int, default=640)
-    dm.add_argument("--height", type=int, default=360)
-    dm.add_argument("--spp", type=int, default=64)
-    dm.add_argument("--exposure", type=_finite, default=1.0)
+    dm.add_argument("--scene", default=os.path.join(os.path.dirname(__file__), "examples", "strand_head.json"),
+                    help="scene file (default: the demo head, examples/strand_head.json)")
+    dm.add_argument("--out", default="out", help="folder for the images (default out)")
+    dm.add_argument("--width", type=_at_least_one, default=640, help="image width in pixels (default 640)")
+    dm.add_argument("--height", type=_at_least_one, default=360, help="image height in pixels (default 360)")
+    dm.add_argument("--spp", type=_at_least_one, default=64, help="Mitsuba's samples per pixel (default 64)")
+    dm.add_argument("--exposure", type=_finite, default=1.0, help="PNG exposure in stops (default 1)")
     dm.set_defaults(func=cmd_demo)
     args = p.parse_args(argv)
     if getattr(args, "n", 1) is not None and getattr(args, "n", 1) < 1:
