@@ -659,3 +659,15 @@ def test_15b_demo_sizes_refused_by_name_and_every_option_documented():
     for line in out.stdout.splitlines():
         if line.strip().startswith("--"):
             assert len(line.split()) > 2, f"no help: {line}"
+
+
+def test_16b_eval_env_refuses_coefficients_float32_cannot_carry():
+    """KarisHair.eval_env in float32 with SH 3e38 returned inf (the
+    coefficient, 3.5x the radiance, overflowed float32): refused naming
+    `sh`; 1e30 and below stay finite, and float64 takes the same input."""
+    k = hs.KarisHair()
+    v, t = np.array([[0, 0, 1.0]], np.float32), np.array([[1, 0, 0.0]], np.float32)
+    with pytest.raises(ValueError, match="sh: in float32 the coefficients must be at most 1e\\+30"):
+        k.eval_env(v, t, [3e38] * 3)
+    assert np.isfinite(k.eval_env(v, t, np.full((9, 3), 1e30))).all()
+    assert np.isfinite(k.eval_env(v.astype(np.float64), t.astype(np.float64), [3e38] * 3)).all()

@@ -134,10 +134,16 @@ class KarisHair(_models.Picklable):
 
         ``sh``: (3,) constant radiance, or (4, 3) / (9, 3) real SH
         coefficients (bands 0-1 / 0-2, order Y00, Y1-1, Y10, Y11, Y2-2, ...).
-        Negative SH radiance (ringing) is clamped to 0.
+        Negative SH radiance (ringing) is clamped to 0. In float32 (V and T
+        float32) the coefficients must be at most 1e30 in magnitude, so
+        that the radiance stays finite (ValueError naming ``sh``; with 3e38
+        it was inf).
         -> (N, 3); 0 where V is along T."""
         c = sh_coefficients(sh)
         (v, t), dtype, n, single = _env_pairs(V, T)
+        if dtype == np.float32 and np.abs(c).max() > F32_SH_BOUND:
+            raise ValueError(f"sh: in float32 the coefficients must be at most {F32_SH_BOUND:g} in magnitude, got "
+                             f"{float(np.abs(c).max())!r} (pass float64 V and T to evaluate in float64)")
         out = self._native.eval_env(v, t, np.ascontiguousarray(c, dtype=dtype).reshape(-1)).reshape(n, 3)
         return out[0] if single else out
 
@@ -149,6 +155,13 @@ class KarisHair(_models.Picklable):
         the same keys as ``ChiangHair.dual_terms``, each (65, 3). Baked
         once per material and density (float32 evaluation)."""
         return dict(self._native.dual_terms(float(back_density)))
+
+
+#: The largest SH coefficient `eval_env` takes in float32: its radiance
+#: over the largest coefficient measured at most 0.54 (200k random pairs,
+#: roughness 0 to 1, constant and single-band SH), so results stay far
+#: inside float32 (3.4e38).
+F32_SH_BOUND = 1e30
 
 
 def _env_pairs(V: npt.ArrayLike, T: npt.ArrayLike) -> tuple[tuple[np.ndarray, np.ndarray], type, int, bool]:
