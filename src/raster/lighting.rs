@@ -67,18 +67,22 @@ impl Lighting {
     }
 
     /// [`Self::build`], or the lighting the previous render built for the
-    /// same geometry, lights, environment and settings (with
-    /// `opts.reuse_shadow_maps`); the flag says whether it was reused.
+    /// same geometry (`geometry`: [`super::shadow::geometry_hash`]),
+    /// lights, environment and settings (with `opts.reuse_shadow_maps`);
+    /// the flag says whether it was reused. A render that needs none of it
+    /// builds nothing and leaves the cache as it is.
     pub fn cached(
         scene: &Scene,
         opts: &RenderOptions,
         methods: &Methods,
         segments: &[WorldSegment],
+        geometry: u64,
     ) -> (Arc<Self>, bool) {
-        if !opts.reuse_shadow_maps {
+        let needed = methods.fiber_counts || methods.traced || methods.environment_as_lights;
+        if !opts.reuse_shadow_maps || !needed {
             return (Arc::new(Self::build(scene, opts, methods, segments)), false);
         }
-        let k = key(scene, opts, methods);
+        let k = key(scene, geometry, opts, methods);
         {
             let c = cache().lock().unwrap_or_else(|e| e.into_inner());
             if let Some((_, l)) = c.as_ref().filter(|(key, _)| *key == k) {
@@ -129,9 +133,9 @@ fn fiber_counts(scene: &Scene, opts: &RenderOptions, methods: &Methods) -> Vec<O
 
 /// The key of a lighting: the geometry, where each light is and whether it
 /// casts shadows, the environment, and the settings the build reads.
-fn key(scene: &Scene, opts: &RenderOptions, m: &Methods) -> u64 {
+fn key(scene: &Scene, geometry: u64, opts: &RenderOptions, m: &Methods) -> u64 {
     let mut h = WordHash::default();
-    h.word(super::shadow::geometry_hash(scene));
+    h.word(geometry);
     for l in &scene.lights {
         match *l {
             Light::Directional {

@@ -181,18 +181,26 @@ pub fn render_with_progress(
     let world = setup::world_segments(&scene.strands);
 
     // 2. Shadow maps.
-    let shadows = shadow_maps(scene, opts, &world, bounds, &mut stats);
+    // The key of the caches a frame reads (maps, lighting, volume), once.
+    let methods = methods::Methods::new(scene, opts);
+    let geometry = if opts.reuse_shadow_maps || methods.volume {
+        shadow::geometry_hash(scene)
+    } else {
+        0
+    };
+    let shadows = shadow_maps(scene, opts, &world, bounds, geometry, &mut stats);
     stats.shadow_ms = ms(t0);
 
     // 3. Segments, frustum culling, per-vertex shading.
     let t1 = std::time::Instant::now();
-    let methods = methods::Methods::new(scene, opts);
-    let (lit, lighting_reused) = lighting::Lighting::cached(scene, opts, &methods, &world);
+    let (lit, lighting_reused) =
+        lighting::Lighting::cached(scene, opts, &methods, &world, geometry);
     stats.lighting_reused = lighting_reused;
     let volume = if methods.volume {
         let tv = std::time::Instant::now();
         let input = volume::SolveInput {
             scene,
+            geometry,
             segments: &world,
             traced: lit.traced.as_ref(),
             env: lit.env_lights.as_ref(),
@@ -303,19 +311,16 @@ pub fn render_with_progress(
 
 /// One map per light (None for lights without shadows and for those
 /// [`cull::lights_without_visible_effect`] skips), built in parallel or
-/// taken from the cache of earlier renders (`reuse_shadow_maps`).
+/// taken from the cache of earlier renders (`reuse_shadow_maps`; `geometry`:
+/// [`shadow::geometry_hash`] of the scene).
 fn shadow_maps(
     scene: &Scene,
     opts: &RenderOptions,
     world: &[setup::WorldSegment],
     bounds: setup::Bounds,
+    geometry: u64,
     stats: &mut RenderStats,
 ) -> Vec<Option<Arc<ShadowMap>>> {
-    let geometry = if opts.reuse_shadow_maps {
-        shadow::geometry_hash(scene)
-    } else {
-        0
-    };
     let unneeded = cull::lights_without_visible_effect(scene, opts, bounds);
     let built: Vec<(Option<Arc<ShadowMap>>, bool)> = pool().install(|| {
         scene

@@ -105,6 +105,8 @@ pub fn bytes_estimate(scene: &Scene, s: &VolumeSettings) -> usize {
 /// or through one it builds), and the environment's directions.
 pub struct SolveInput<'a> {
     pub scene: &'a Scene,
+    /// [`crate::raster::shadow::geometry_hash`] of the scene (the cache's key).
+    pub geometry: u64,
     pub segments: &'a [crate::raster::setup::WorldSegment],
     pub traced: Option<&'a crate::raster::traced::SegmentGrid>,
     pub env: Option<&'a EnvLights>,
@@ -470,10 +472,10 @@ fn smooth(m: &medium::Cells, fluence: &[[f32; 6]], nb: usize) -> Vec<[f32; 6]> {
 
 /// The key of a solve: the geometry, the lights, the environment's
 /// directions, the material and the settings.
-fn key(scene: &Scene, env: Option<&EnvLights>, s: &VolumeSettings) -> u64 {
+fn key(scene: &Scene, geometry: u64, env: Option<&EnvLights>, s: &VolumeSettings) -> u64 {
     use crate::raster::shadow::WordHash;
     let mut h = WordHash::default();
-    h.word(crate::raster::shadow::geometry_hash(scene));
+    h.word(geometry);
     for l in scene
         .lights
         .iter()
@@ -542,7 +544,7 @@ pub fn cached(
     cancel: Option<&AtomicBool>,
     progress: Option<&AtomicUsize>,
 ) -> Option<(Arc<VolumeRadiance>, bool)> {
-    let k = key(input.scene, input.env, &settings);
+    let k = key(input.scene, input.geometry, input.env, &settings);
     {
         let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
         if let Some(i) = c.iter().position(|e| e.0 == k) {
