@@ -709,10 +709,15 @@ def _read_strand_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.nda
 
 
 def write_strand_file(path: str, points: np.ndarray, radii: np.ndarray, offsets: np.ndarray) -> None:
-    """Writes strands in the `x y z r` text format (also Mitsuba's curve format)."""
+    """Writes strands in the `x y z r` text format (also Mitsuba's curve
+    format): one vertex per line, a blank line after each strand."""
+    rows = np.column_stack([np.asarray(points, dtype=np.float64).reshape(-1, 3),
+                            np.asarray(radii, dtype=np.float64).reshape(-1)]).tolist()
+    lines = ["%.7g %.7g %.7g %.7g" % tuple(r) for r in rows]
+    for e in np.asarray(offsets[1:], dtype=np.int64) - 1:
+        if e >= 0:
+            lines[e] += "\n"
     with open(path, "w") as f:
-        for s in range(len(offsets) - 1):
-            for i in range(int(offsets[s]), int(offsets[s + 1])):
-                x, y, z = points[i]
-                f.write(f"{x:.7g} {y:.7g} {z:.7g} {radii[i]:.7g}\n")
+        f.write("\n".join(lines))
+        if lines:
             f.write("\n")

@@ -150,14 +150,12 @@ def _card_meshes(scene: "Scene", folder: str, hair_bsdf: str, hair_params: dict[
 
 def _clamped_controls(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray):
     """Each strand's vertices with the first and last repeated twice more."""
-    pts, rad, off = [], [], [0]
-    for s in range(len(offsets) - 1):
-        i0, i1 = int(offsets[s]), int(offsets[s + 1])
-        idx = [i0, i0] + list(range(i0, i1)) + [i1 - 1, i1 - 1]
-        pts.append(points[idx])
-        rad.append(radii[idx])
-        off.append(off[-1] + len(idx))
-    return np.concatenate(pts), np.concatenate(rad), np.array(off)
+    offsets = np.asarray(offsets, dtype=np.int64)
+    rep = np.ones(len(points), dtype=np.int64)
+    np.add.at(rep, offsets[:-1], 2)
+    np.add.at(rep, offsets[1:] - 1, 2)
+    idx = np.repeat(np.arange(len(points)), rep)
+    return points[idx], radii[idx], np.concatenate([[0], np.cumsum(np.diff(offsets) + 4)])
 
 
 def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth: int = 64, width: int | None = None,
@@ -173,7 +171,8 @@ def render(scene: "Scene", spp: int = 64, integrator: str = "direct", max_depth:
     (default: 8, or spp if fewer) so that a progress bar can be shown;
     Ctrl-C stops between passes. ``timing``, when given, receives
     ``load_s`` (building and loading the scene) and ``render_s`` (rendering
-    and reading back the image), summed over the passes."""
+    and reading back the image, summed over the passes). The scene is
+    built and loaded once; each pass renders it with its own seed."""
     if spp < 1:
         raise ValueError(f"spp: must be >= 1, got {spp}")
     v = variant or default_variant()
@@ -203,14 +202,13 @@ def _render_passes(scene: "Scene", spp: int, integrator: str, max_depth: int, wi
     with tempfile.TemporaryDirectory() as tmp, Bar(passes, "mitsuba", unit="pass", enabled=progress) as bar:
         per = [spp // passes + (1 if k < spp % passes else 0) for k in range(passes)]
         acc = None
-        timing.update(load_s=0.0, render_s=0.0)
+        t0 = time.perf_counter()
+        d = scene_dict(scene, f"{tmp}/strands.txt", per[0], integrator, max_depth, width, height, hair_params, hair_bsdf)
+        mscene = mi.load_dict(d)
+        timing.update(load_s=time.perf_counter() - t0, render_s=0.0)
         for k, n in enumerate(per):
-            t0 = time.perf_counter()
-            d = scene_dict(scene, f"{tmp}/strands.txt", n, integrator, max_depth, width, height, hair_params, hair_bsdf)
-            mscene = mi.load_dict(d)
             t1 = time.perf_counter()
             img = np.array(mi.render(mscene, spp=n, seed=seed * 1000 + k), dtype=np.float64) * n
-            timing["load_s"] += t1 - t0
             timing["render_s"] += time.perf_counter() - t1
             acc = img if acc is None else acc + img
             bar.update_to(k + 1)
