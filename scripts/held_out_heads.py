@@ -1,17 +1,22 @@
 """Heads of other styles and lights than the generator's straight hair, with
 path-traced references: held-out checks of the renderer's presets.
 
-    .venv/bin/python scripts/held_out_heads.py OUT_DIR [--spp 256] [--heads wavy_blond_rim,curly_auburn_point]
+    .venv/bin/python scripts/held_out_heads.py OUT_DIR [--spp 256] [--depth2-spp 0] [--variant V] [--heads a,b]
 
 Each head starts from the procedural `head` generator's strands and is
 reshaped in numpy (deterministic): `wavy_blond_rim` (waves across the
 strand and clumps of ~40 strands pulled together, blond, key and rim
 light), `curly_auburn_point` (helical curls, auburn, a point light and a
 constant environment), `wavy_black_env` (waves, black, key light and
-environment). Writes OUT_DIR/NAME.txt (strands, `x y z r`), NAME.json (the
+environment), `clumped_blond_key` (clumps, light blond, one key light),
+`curly_blond_env` (curls, blond, environment and a weak key),
+`wavy_ginger_back` (waves, ginger, backlight and a front fill),
+`straight_brown_back` (the generator's straight hair, brown, backlight and
+a dim environment). Writes OUT_DIR/NAME.txt (strands, `x y z r`), NAME.json (the
 scene) and, unless --no-reference, NAME.exr: Mitsuba `path` (max_depth 64),
 the mean of two halves of --spp samples each (seeds 1 and 2), whose relMSE
-against each other is printed (the reference's own noise).
+against each other is printed (the reference's own noise);
+--depth2-spp also writes NAME_depth2.exr, the same at max_depth 2.
 """
 
 from __future__ import annotations
@@ -37,6 +42,12 @@ MATERIALS = {
                "azimuthal_roughness": 0.4},
     "black": {"model": "chiang", "eumelanin": 4.0, "pheomelanin": 0.1, "longitudinal_roughness": 0.25,
               "azimuthal_roughness": 0.35},
+    "light_blond": {"model": "chiang", "eumelanin": 0.1, "pheomelanin": 0.15, "longitudinal_roughness": 0.28,
+                    "azimuthal_roughness": 0.38},
+    "ginger": {"model": "chiang", "eumelanin": 0.3, "pheomelanin": 1.1, "longitudinal_roughness": 0.27,
+               "azimuthal_roughness": 0.35},
+    "brown": {"model": "chiang", "eumelanin": 0.9, "pheomelanin": 0.3, "longitudinal_roughness": 0.3,
+              "azimuthal_roughness": 0.4},
 }
 
 
@@ -60,7 +71,7 @@ def strands(style: str, n: int, segments: int, seed: int) -> np.ndarray:
     if style in ("wavy", "wavy_clumped"):
         phase = rng.uniform(0, 2 * np.pi, (n, 1, 1))
         p = p + 0.018 * s * np.sin(2 * np.pi * 3.0 * s + phase) * a
-    if style == "wavy_clumped":
+    if style in ("wavy_clumped", "clumped"):
         roots = p[:, 0]
         centres = roots[rng.choice(n, n // 40, replace=False)]
         clump = np.argmin(((roots[:, None] - centres[None]) ** 2).sum(-1), axis=1)
@@ -84,6 +95,17 @@ HEADS = {
     "wavy_black_env": dict(style="wavy", n=8000, segments=24, seed=13, material="black", lights=[
         {"type": "directional", "direction": [0.2, 1.0, 0.4], "intensity": [3.0, 3.0, 3.0], "shadows": True},
         {"type": "environment", "radiance": [0.4, 0.4, 0.42]}]),
+    "clumped_blond_key": dict(style="clumped", n=9000, segments=20, seed=14, material="light_blond", lights=[
+        {"type": "directional", "direction": [0.4, 0.5, 0.8], "intensity": [3.0, 3.0, 3.0], "shadows": True}]),
+    "curly_blond_env": dict(style="curly", n=6000, segments=40, seed=15, material="blond", lights=[
+        {"type": "directional", "direction": [-0.4, 0.8, 0.5], "intensity": [1.5, 1.5, 1.5], "shadows": True},
+        {"type": "environment", "radiance": [0.35, 0.35, 0.38]}]),
+    "wavy_ginger_back": dict(style="wavy", n=8000, segments=24, seed=16, material="ginger", lights=[
+        {"type": "directional", "direction": [0.1, 0.5, -1.0], "intensity": [4.0, 4.0, 4.0], "shadows": True},
+        {"type": "directional", "direction": [0.3, 0.2, 1.0], "intensity": [1.2, 1.2, 1.2], "shadows": True}]),
+    "straight_brown_back": dict(style="straight", n=10000, segments=16, seed=17, material="brown", lights=[
+        {"type": "directional", "direction": [-0.2, 0.3, -1.0], "intensity": [5.0, 5.0, 5.0], "shadows": True},
+        {"type": "environment", "radiance": [0.1, 0.1, 0.11]}]),
 }
 
 
@@ -108,6 +130,9 @@ def main() -> int:
     ap.add_argument("out")
     ap.add_argument("--spp", type=int, default=256, help="samples per pixel of each half")
     ap.add_argument("--heads", default=",".join(HEADS))
+    ap.add_argument("--depth2-spp", type=int, default=0,
+                    help="also write NAME_depth2.exr (max_depth 2: single scattering), halves of this many spp")
+    ap.add_argument("--variant", help="Mitsuba variant (default: hairshade.mitsuba.default_variant())")
     ap.add_argument("--no-reference", action="store_true")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
@@ -120,13 +145,17 @@ def main() -> int:
         from hairshade import mitsuba as hm
 
         scene = hs.Scene.load(path)
-        t = time.perf_counter()
-        halves = [hm.render(scene, spp=a.spp, integrator="path", max_depth=64, seed=s, passes=1, progress=False)
-                  for s in (1, 2)]
-        ref = 0.5 * (halves[0] + halves[1])
-        hs.write_exr(os.path.join(a.out, f"{name}.exr"), ref)
-        print(f"{name}: halves relMSE {hs.rel_mse(halves[0], halves[1]):.2e}, mean {ref.reshape(-1, 3).mean(0)}, "
-              f"{time.perf_counter() - t:.0f} s", flush=True)
+        for depth, spp, suffix in ((64, a.spp, ""), (2, a.depth2_spp, "_depth2")):
+            if spp < 1:
+                continue
+            t = time.perf_counter()
+            halves = [hm.render(scene, spp=spp, integrator="path", max_depth=depth, seed=s, passes=-(-spp // 1024), progress=False,
+                                variant=a.variant) for s in (1, 2)]
+            ref = 0.5 * (halves[0] + halves[1])
+            hs.write_exr(os.path.join(a.out, f"{name}{suffix}.exr"), ref)
+            print(f"{name}{suffix}: {a.variant or hm.default_variant()}, 2 x {spp} spp, max_depth {depth}: halves relMSE "
+                  f"{hs.rel_mse(halves[0], halves[1]):.2e}, mean {ref.reshape(-1, 3).mean(0)}, "
+                  f"{time.perf_counter() - t:.0f} s", flush=True)
     return 0
 
 

@@ -1,0 +1,37 @@
+#!/bin/bash
+# The checks that need the GPU machine, in one run: converged references of the held-out heads
+# (Mitsuba cuda_ad_rgb), Mitsuba at equal error against the quality presets
+# (scripts/mitsuba_equal_error.py), and thread scaling (scripts/thread_scaling.py).
+#
+# Before, here: ../shared/tools/gpu_site.sh (packs Mitsuba, drjit and this checkout's wheel into .dev/)
+# and cp ../shared/references/demo_head_640.exr .dev/. Then, on the GPU machine, from the project root
+# (carry .dev):  bash scripts/gpu_checks.sh
+# Writes $OUT/log.txt and $OUT/results.tar (docs/equal_error*, docs/scaling*, tests/data/held_out/*.exr),
+# packed again after each step so that a step cut short keeps the ones before it.
+set -u
+out=${OUT:-/tmp/gpu_checks}
+mkdir -p "$out" /tmp/site /tmp/held
+if [ "${SITE:-1}" = 1 ]; then  # SITE=0: use the Python environment as it is (a dry run here, with PY)
+  tar xJf .dev/site.tar.xz -C /tmp/site && export PYTHONPATH=/tmp/site
+fi
+export PYTHONUNBUFFERED=1
+py=${PY:-python3}
+variant=${VARIANT:-cuda_ad_rgb}
+pack() { tar cf "$out/results.tar" docs/equal_error* docs/scaling* tests/data/held_out/*.exr 2>/dev/null; }
+refs() {  # refs SPP SECONDS HEADS
+  timeout "$2" $py scripts/held_out_heads.py /tmp/held --spp "$1" --depth2-spp "${D2_SPP:-1024}" --variant "$variant" --heads "$3"
+  cp /tmp/held/*.exr tests/data/held_out/ 2>/dev/null
+  pack
+}
+{
+  nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
+  lscpu | grep -E 'Model name|^CPU\(s\)'
+  $py -c "import hairshade as hs, mitsuba as mi; print(hs.__version__, hs._native.simd_level(), mi.__version__)"
+  refs ${SPP:-4096} ${REFS_S:-90} curly_auburn_point,wavy_black_env,wavy_ginger_back,straight_brown_back
+  refs ${BLOND_SPP:-16384} ${BLOND_S:-120} clumped_blond_key,curly_blond_env,wavy_blond_rim
+  timeout ${EQUAL_S:-180} $py scripts/mitsuba_equal_error.py --variant "$variant" --max-spp ${MAX_SPP:-1024} \
+    --demo-truth .dev/demo_head_640.exr
+  pack
+  timeout ${SCALING_S:-200} $py scripts/thread_scaling.py --threads ${THREADS:-1,16,8,4,2} --size ${SIZE:-1280x720}
+  pack
+} 2>&1 | tee "$out/log.txt"
