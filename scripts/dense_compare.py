@@ -287,9 +287,9 @@ def main() -> None:
             ss, sp = single_rows(name, d, ref)
             single += ss
             split += sp
-        scale = 1.0 / np.percentile(ref, 99.5)
-        strip = np.concatenate([ref] + [shown[k] for k in picture], axis=1) * scale
-        hs.write_png(str(out / "dense" / f"{name}.png"), np.clip(strip, 0, 1) ** (1 / 2.2))
+        strip = np.concatenate([ref] + [shown[k] for k in picture], axis=1)
+        # the truth's 99.5th percentile is white; write_png encodes sRGB
+        hs.write_png(str(out / "dense" / f"{name}.png"), strip, exposure=-np.log2(np.percentile(ref, 99.5)))
     if args.scenes:
         return
     lines = [
@@ -311,7 +311,7 @@ def main() -> None:
         )
     lines += [
         "",
-        "Pictures `dense/NAME.png`: truth | " + " | ".join(PICTURE) + " (display gamma 2.2); `dense/demo_head.png`",
+        "Pictures `dense/NAME.png`: truth | " + " | ".join(PICTURE) + " (sRGB, the truth's 99.5th percentile white); `dense/demo_head.png`",
         "and `dense/card_head.png`: truth | " + " | ".join(DEMO_PICTURE) + ".",
         "",
         f"{DEMO} is the demo's KarisHair head (25k strands); its truth is Mitsuba on the ChiangHair that",

@@ -128,8 +128,9 @@ def main() -> None:
         out.mkdir(parents=True, exist_ok=True)
         scale = 1.0 / np.percentile(ref, 99.5)
         heat = np.clip(err / np.percentile(err, 99.9), 0, 1)[..., None].repeat(3, axis=2)
-        strip = np.concatenate([np.clip(ref * scale, 0, 1) ** (1 / 2.2), np.clip(ours * scale, 0, 1) ** (1 / 2.2),
-                                heat], axis=1)
+        # the heat map is a display value: decoded from sRGB so that write_png's encoding gives it back
+        heat = np.where(heat <= 0.04045, heat / 12.92, ((heat + 0.055) / 1.055) ** 2.4)
+        strip = np.concatenate([ref * scale, ours * scale, heat], axis=1)
         hs.write_png(str(out / f"{args.scene}_error.png"), strip.astype(np.float32))
         (out / f"{args.scene}_error.md").write_text("\n".join(lines) + "\n")
         print(f"wrote {out / f'{args.scene}_error.md'} and .png")

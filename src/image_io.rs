@@ -269,18 +269,11 @@ pub fn srgb_encode(x: f32) -> f32 {
     }
 }
 
-/// Writes an 8-bit sRGB PNG of `data × 2^exposure`, clamped to [0, 1].
-pub fn write_png(
-    path: &Path,
-    width: usize,
-    height: usize,
-    data: &[f32],
-    exposure: f32,
-) -> Result<(), ImageError> {
-    assert_eq!(data.len(), width * height * 3);
+/// 8-bit sRGB values of `data × 2^exposure`, clamped to [0, 1]; a
+/// non-finite value becomes 0 (black).
+pub fn srgb8(data: &[f32], exposure: f32) -> Vec<u8> {
     let scale = exposure.exp2();
-    let bytes: Vec<u8> = data
-        .iter()
+    data.iter()
         .map(|&v| {
             let v = if v.is_finite() {
                 (v * scale).clamp(0.0, 1.0)
@@ -289,16 +282,53 @@ pub fn write_png(
             };
             (srgb_encode(v) * 255.0 + 0.5) as u8
         })
-        .collect();
+        .collect()
+}
+
+/// An 8-bit sRGB PNG of `data × 2^exposure` (as [`srgb8`]) into `out`.
+fn encode_png_to<W: std::io::Write>(
+    out: W,
+    width: usize,
+    height: usize,
+    data: &[f32],
+    exposure: f32,
+) -> Result<(), png::EncodingError> {
+    assert_eq!(data.len(), width * height * 3);
+    let mut enc = png::Encoder::new(out, width as u32, height as u32);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header()?;
+    w.write_image_data(&srgb8(data, exposure))
+}
+
+/// The bytes of an 8-bit sRGB PNG of `data × 2^exposure`, clamped to [0, 1].
+pub fn encode_png(
+    width: usize,
+    height: usize,
+    data: &[f32],
+    exposure: f32,
+) -> Result<Vec<u8>, ImageError> {
+    let mut bytes = Vec::new();
+    encode_png_to(&mut bytes, width, height, data, exposure)
+        .map_err(|e| ImageError(format!("PNG: {e}"), ImageErrorKind::Io))?;
+    Ok(bytes)
+}
+
+/// Writes an 8-bit sRGB PNG of `data × 2^exposure`, clamped to [0, 1].
+pub fn write_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    data: &[f32],
+    exposure: f32,
+) -> Result<(), ImageError> {
     let io = |e: &dyn std::fmt::Display| {
         ImageError(format!("{}: {e}", path.display()), ImageErrorKind::Io)
     };
     let file = std::fs::File::create(path).map_err(|e| io(&e))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().map_err(|e| io(&e))?;
-    w.write_image_data(&bytes).map_err(|e| io(&e))
+    let mut out = std::io::BufWriter::new(file);
+    encode_png_to(&mut out, width, height, data, exposure).map_err(|e| io(&e))?;
+    std::io::Write::flush(&mut out).map_err(|e| io(&e))
 }
 
 #[cfg(test)]

@@ -152,15 +152,67 @@ def read_exr(path: str | os.PathLike[str], max_pixels: int | None = None) -> Ima
     return data.reshape(h, w, 3)
 
 
-def write_png(path: str | os.PathLike[str], image: npt.ArrayLike, exposure: float = 0.0) -> None:
-    """8-bit sRGB preview of a linear image scaled by 2**exposure, clamped."""
+def _rgb(image: npt.ArrayLike) -> np.ndarray:
     a = np.ascontiguousarray(image, dtype=np.float32)
     if a.ndim != 3 or a.shape[2] != 3:
         raise ValueError(f"image: expected shape (H, W, 3), got {a.shape}")
-    if isinstance(exposure, bool) or not isinstance(exposure, (int, float, np.integer, np.floating)) \
+    return a
+
+
+def _stops(image: np.ndarray, exposure: float | str) -> float:
+    """``exposure`` in stops; "auto" maps the 99.5th percentile of the
+    image's finite values to 1 (0 for an image without a positive one)."""
+    if isinstance(exposure, str):
+        if exposure != "auto":
+            raise ValueError(f"exposure: expected a number of stops in [-100, 100] or 'auto', got {exposure!r:.80}")
+        v = image[np.isfinite(image)]
+        p = float(np.percentile(v, 99.5)) if v.size else 0.0
+        return float(np.clip(-np.log2(p), -100, 100)) if p > 0 else 0.0
+    if isinstance(exposure, (bool, np.bool_)) or not isinstance(exposure, (int, float, np.integer, np.floating)) \
             or not np.isfinite(exposure) or abs(exposure) > 100:
-        raise ValueError(f"exposure: expected a finite number of stops in [-100, 100], got {exposure!r}")
-    _native.write_png(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)), float(exposure))
+        raise ValueError(f"exposure: expected a finite number of stops in [-100, 100] or 'auto', got {exposure!r:.80}")
+    return float(exposure)
+
+
+def write_png(path: str | os.PathLike[str], image: npt.ArrayLike, exposure: float | str = 0.0) -> None:
+    """8-bit sRGB preview of a linear image scaled by 2**exposure, clamped
+    to [0, 1] (the bytes of :func:`tonemap`). ``exposure``: stops in
+    [-100, 100], or "auto" (the 99.5th percentile becomes white)."""
+    a = _rgb(image)
+    _native.write_png(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)), _stops(a, exposure))
+
+
+def tonemap(image: npt.ArrayLike, exposure: float | str = 0.0) -> npt.NDArray[np.uint8]:
+    """A linear image as 8-bit sRGB -> (H, W, 3) uint8: scaled by
+    2**exposure, clamped to [0, 1], sRGB-encoded (linear 0.18 becomes 118).
+    Non-finite values become 0. ``exposure``: stops in [-100, 100], or
+    "auto" (the 99.5th percentile of the finite values becomes white)."""
+    a = _rgb(image)
+    b = _native.srgb8((a.shape[1], a.shape[0], a.reshape(-1)), _stops(a, exposure))
+    return np.frombuffer(b, dtype=np.uint8).reshape(a.shape)
+
+
+class Preview:
+    """A linear image that a notebook shows as an sRGB PNG
+    (``_repr_png_``); :func:`show` makes one."""
+
+    def __init__(self, image: npt.ArrayLike, exposure: float | str = 0.0):
+        self.image = _rgb(image)
+        self.exposure = _stops(self.image, exposure)
+
+    def _repr_png_(self) -> bytes:
+        a = self.image
+        return _native.png_bytes((a.shape[1], a.shape[0], a.reshape(-1)), self.exposure)
+
+    def __repr__(self) -> str:
+        h, w, _ = self.image.shape
+        return f"Preview({w}x{h}, exposure={self.exposure:+.2f} stops)"
+
+
+def show(image: npt.ArrayLike, exposure: float | str = 0.0) -> Preview:
+    """The image displayed in a notebook (Jupyter shows the returned
+    :class:`Preview` as a PNG, encoded as :func:`write_png` writes it)."""
+    return Preview(image, exposure)
 
 
 def rel_mse(image: npt.ArrayLike, reference: npt.ArrayLike, eps: float = 1e-2) -> float:

@@ -5,6 +5,7 @@ use crate::image_io::{ImageError, ImageErrorKind, DEFAULT_MAX_PIXELS};
 use numpy::PyReadonlyArray1;
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyBytes;
 use std::path::PathBuf;
 
 /// An RGB image as (width, height, flat float32 array of H·W·3 values).
@@ -100,4 +101,29 @@ pub fn write_png(
 ) -> PyResult<()> {
     let (w, h, d) = image.checked()?;
     without_gil(py, || crate::image_io::write_png(&path, w, h, d, exposure)).map_err(image_error)
+}
+
+/// 8-bit sRGB values (H·W·3 bytes) of a linear image scaled by 2^exposure.
+#[pyfunction]
+pub fn srgb8<'py>(
+    py: Python<'py>,
+    image: RgbImage<'py>,
+    exposure: f32,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let (_, _, d) = image.checked()?;
+    let bytes = without_gil(py, || crate::image_io::srgb8(d, exposure));
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// The bytes of an sRGB PNG of a linear image scaled by 2^exposure.
+#[pyfunction]
+pub fn png_bytes<'py>(
+    py: Python<'py>,
+    image: RgbImage<'py>,
+    exposure: f32,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let (w, h, d) = image.checked()?;
+    let bytes =
+        without_gil(py, || crate::image_io::encode_png(w, h, d, exposure)).map_err(image_error)?;
+    Ok(PyBytes::new(py, &bytes))
 }
