@@ -188,7 +188,7 @@ def tonemap(image: npt.ArrayLike, exposure: float | str = 0.0) -> npt.NDArray[np
     Non-finite values become 0. ``exposure``: stops in [-100, 100], or
     "auto" (the 99.5th percentile of the finite values becomes white)."""
     a = _rgb(image)
-    b = _native.srgb8((a.shape[1], a.shape[0], a.reshape(-1)), _stops(a, exposure))
+    b = _native.srgb8((a.shape[1], a.shape[0], a.reshape(-1)), _stops(a, exposure), False)
     return np.frombuffer(b, dtype=np.uint8).reshape(a.shape)
 
 
@@ -202,7 +202,7 @@ class Preview:
 
     def _repr_png_(self) -> bytes:
         a = self.image
-        return _native.png_bytes((a.shape[1], a.shape[0], a.reshape(-1)), self.exposure)
+        return _native.srgb8((a.shape[1], a.shape[0], a.reshape(-1)), self.exposure, True)
 
     def __repr__(self) -> str:
         h, w, _ = self.image.shape

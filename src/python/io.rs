@@ -103,27 +103,20 @@ pub fn write_png(
     without_gil(py, || crate::image_io::write_png(&path, w, h, d, exposure)).map_err(image_error)
 }
 
-/// 8-bit sRGB values (H·W·3 bytes) of a linear image scaled by 2^exposure.
+/// 8-bit sRGB of a linear image scaled by 2^exposure: its H·W·3 values
+/// (`png: false`) or the bytes of a PNG file (`png: true`).
 #[pyfunction]
 pub fn srgb8<'py>(
     py: Python<'py>,
     image: RgbImage<'py>,
     exposure: f32,
-) -> PyResult<Bound<'py, PyBytes>> {
-    let (_, _, d) = image.checked()?;
-    let bytes = without_gil(py, || crate::image_io::srgb8(d, exposure));
-    Ok(PyBytes::new(py, &bytes))
-}
-
-/// The bytes of an sRGB PNG of a linear image scaled by 2^exposure.
-#[pyfunction]
-pub fn png_bytes<'py>(
-    py: Python<'py>,
-    image: RgbImage<'py>,
-    exposure: f32,
+    png: bool,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let (w, h, d) = image.checked()?;
-    let bytes =
-        without_gil(py, || crate::image_io::encode_png(w, h, d, exposure)).map_err(image_error)?;
+    let bytes = without_gil(py, || match png {
+        true => crate::image_io::encode_png(w, h, d, exposure),
+        false => Ok(crate::image_io::srgb8(d, exposure)),
+    })
+    .map_err(image_error)?;
     Ok(PyBytes::new(py, &bytes))
 }

@@ -35,7 +35,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(io::read_exr, m)?,
         wrap_pyfunction!(io::write_png, m)?,
         wrap_pyfunction!(io::srgb8, m)?,
-        wrap_pyfunction!(io::png_bytes, m)?,
         wrap_pyfunction!(io::read_png, m)?,
         wrap_pyfunction!(io::default_max_pixels, m)?,
         wrap_pyfunction!(special::lobe, m)?,
