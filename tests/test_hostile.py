@@ -658,7 +658,7 @@ def test_15b_demo_sizes_refused_by_name_and_every_option_documented():
     out = subprocess.run([sys.executable, "-m", "hairshade", "demo", "--help"], capture_output=True, text=True,
                          timeout=60, env=env)
     options = [line.split()[0] for line in out.stdout.splitlines() if line.strip().startswith("--")]
-    assert set(options) == {"--scene", "--out", "--width", "--height", "--spp", "--exposure"}, options
+    assert set(options) == {"--scene", "--out", "--width", "--height", "--spp", "--mitsuba-equal", "--exposure"}, options
     for line in out.stdout.splitlines():
         if line.strip().startswith("--"):
             assert len(line.split()) > 2, f"no help: {line}"
