@@ -19,7 +19,6 @@ import argparse
 import csv
 import os
 import pathlib
-import platform
 import sys
 import time
 
@@ -37,16 +36,10 @@ NOISE = {"auburn_key": 2.4e-5, "black_top": 1.9e-5, "blond_back": 5.2e-4, "blond
 
 
 def cpu() -> str:
-    """The CPU's model name and the vector level the kernels run at."""
-    name = platform.processor() or "unknown CPU"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                name = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{name}, {os.cpu_count()} cores, {hs._native.simd_level()}"
+    """The CPU's model name, its cores and the vector level the kernels run at."""
+    from hairshade.demo import cpu_name
+
+    return cpu_name()
 
 
 def preset_scene(name: str) -> hs.Scene:
