@@ -44,7 +44,8 @@ A scene file::
   (default), ``accurate``) picks a preset measured against path tracing
   (``docs/quality.md``); ``transparency`` (``mlab``, ``sorted``,
   ``coverage``), ``shadows`` (``exponential``, ``opacity``, ``density``,
-  ``traced``) and ``multiple_scattering`` (``none``, ``karis``, ``dual``)
+  ``traced``) and ``multiple_scattering`` (``none``, ``karis``, ``dual``,
+  ``volume``)
   are a method's name or ``{method: {options}}``, so that an option is
   written under the method it belongs to; ``shading``, ``lod``,
   ``density_resolution``, ``environment_directions``,
