@@ -99,3 +99,36 @@ def test_mapping_is_an_attribute_and_says_what_it_needs():
     r = subprocess.run([sys.executable, "-c", "import sys; sys.modules['scipy'] = None\nimport hairshade as hs\nhs.mapping"],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode != 0 and "hairshade.mapping needs scipy: pip install 'hairshade[mapping]'" in r.stderr
+
+
+def test_every_option_of_every_command_has_help():
+    """`hairshade COMMAND --help` explains every argument and option."""
+    import argparse
+
+    from hairshade.cli import build_parser
+
+    missing = []
+    for action in build_parser()._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                missing += [f"{name} {a.option_strings or a.dest}" for a in sub._actions
+                            if not isinstance(a, argparse._HelpAction) and not a.help]
+    assert not missing, missing
+
+
+def test_render_finds_a_shipped_example_by_name(tmp_path):
+    """From a wheel there is no examples/ folder: `hairshade render
+    examples/strand_head.json` (or `strand_head`) renders the packaged
+    example and says so; a name that is neither a file nor an example is
+    still a missing file."""
+    out = tmp_path / "a.png"
+    r = subprocess.run([sys.executable, "-m", "hairshade", "render", "examples/single_strand.json", "-o", str(out),
+                        "--width", "32"], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert r.returncode == 0 and out.stat().st_size > 0, r.stderr
+    assert "rendering the shipped example" in r.stderr and "single_strand.json" in r.stderr
+    r = subprocess.run([sys.executable, "-m", "hairshade", "render", "single_strand", "-o", str(out), "--width", "32"],
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([sys.executable, "-m", "hairshade", "render", "no_such_scene.json"], capture_output=True,
+                       text=True, timeout=120, cwd=tmp_path)
+    assert r.returncode == 2 and "no_such_scene.json" in r.stderr and "not found" in r.stderr

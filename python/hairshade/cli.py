@@ -236,6 +236,23 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def _scene_path(arg: str) -> str:
+    """``arg``, or where it names a shipped example that is not a file here
+    (``strand_head``, ``strand_head.json``, ``examples/strand_head.json``
+    from a wheel), that example's path in the package (said on stderr)."""
+    if os.path.exists(arg):
+        return arg
+    from . import examples
+
+    name = os.path.basename(arg)
+    name = name if name.endswith(".json") else name + ".json"
+    for path in examples():
+        if os.path.basename(path) == name:
+            print(f"note: {arg} is not a file here: rendering the shipped example {path}", file=sys.stderr)
+            return path
+    return arg
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     import time
 
@@ -247,7 +264,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     if ext not in (".exr", ".png"):
         print(f"error: {out}: unknown output format {ext or '(no extension)'!r} (use .exr or .png)", file=sys.stderr)
         return 2
-    scene = Scene.load(args.scene, allow_outside=args.allow_outside)
+    scene = Scene.load(_scene_path(args.scene), allow_outside=args.allow_outside)
     t = time.perf_counter()
     img, stats = render(scene, width=args.width, height=args.height, return_stats=True, **_settings(args))
     dt = time.perf_counter() - t
@@ -341,7 +358,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
+def build_parser() -> argparse.ArgumentParser:
+    """The command line: one subcommand per job."""
     p = argparse.ArgumentParser(prog="hairshade", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="version", version=f"hairshade {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
@@ -352,7 +370,8 @@ def main(argv: list[str] | None = None) -> int:
     b = sub.add_parser("bench", help="run time against error beside Mitsuba (BSDFs; --render: renders)")
     b.add_argument("--n", type=_at_least_one, default=1 << 20, help="direction pairs (default 2^20)")
     b.add_argument("--repeats", type=_at_least_one, default=5, help="timed runs of each row, the best kept")
-    b.add_argument("--variant", default=None)
+    b.add_argument("--variant", default=None,
+                   help="Mitsuba variant to time beside hairshade (default llvm_ad_rgb where it runs, else scalar_rgb)")
     b.add_argument("--csv", default=None, help="write the results as CSV")
     b.add_argument("--plot", default=None, help="write the run time vs error plot (PNG)")
     b.add_argument("--fast", action="store_true", help="skip the slow DEonHair rows; small renders")
@@ -364,16 +383,16 @@ def main(argv: list[str] | None = None) -> int:
                         "of the CSV there")
     b.add_argument("--bsdf-only", action="store_true", help="with --out: only the BSDF benchmark")
     b.add_argument("--out", default=None, help="write every CSV and plot (BSDF and rendering) into this folder")
-    b.add_argument("--no-progress", action="store_true")
+    b.add_argument("--no-progress", action="store_true", help="no progress bar")
     b.set_defaults(func=cmd_bench)
     t = sub.add_parser("tables", help="KarisHair error tables against DEonHair and ChiangHair")
     t.add_argument("--out", default="docs", help="output folder (default docs/)")
     t.add_argument("--no-chiang", action="store_true", help="skip the ChiangHair comparison (its fits take ~2 min)")
     t.add_argument("--no-fit", action="store_true", help="analytic Chiang mapping only")
-    t.add_argument("--no-progress", action="store_true")
+    t.add_argument("--no-progress", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_tables)
     r = sub.add_parser("render", help="render a scene file with the rasterizer")
-    r.add_argument("scene")
+    r.add_argument("scene", help="scene file (.json), or the name of a shipped example (strand_head, card_head, ...)")
     r.add_argument("-o", "--output", help="output image, .exr or .png (default: <scene>.exr)")
     r.add_argument("--png", action="store_true", help="also write an sRGB PNG preview")
     r.add_argument("--exposure", type=_finite, default=0.0, help="PNG exposure in stops")
@@ -396,10 +415,10 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--lod", type=_lod, help="fraction of the strands drawn, in (0, 1], or 'auto'")
     r.set_defaults(func=cmd_render)
     c = sub.add_parser("compare", help="relMSE and FLIP of IMAGE against REFERENCE (EXR files)")
-    c.add_argument("image")
-    c.add_argument("reference")
+    c.add_argument("image", help="the image to measure (EXR)")
+    c.add_argument("reference", help="the reference it is compared with (EXR, same size)")
     c.add_argument("--png", help="write a side-by-side PNG [image | reference | error]")
-    c.add_argument("--exposure", type=_finite, default=0.0)
+    c.add_argument("--exposure", type=_finite, default=0.0, help="exposure of the --png picture in stops (default 0)")
     c.add_argument("--no-flip", action="store_true", help="relMSE only (FLIP needs hairshade[flip])")
     c.set_defaults(func=cmd_compare)
     dm = sub.add_parser("demo", help="the demo head with each quality preset beside its converged truth, and Mitsuba "
@@ -417,6 +436,11 @@ def main(argv: list[str] | None = None) -> int:
                          "(minutes on 2 cores; by default that time is estimated from the --spp render)")
     dm.add_argument("--exposure", type=_finite, default=1.0, help="PNG exposure in stops (default 1)")
     dm.set_defaults(func=cmd_demo)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = build_parser()
     args = p.parse_args(argv)
     if getattr(args, "n", 1) is not None and getattr(args, "n", 1) < 1:
         p.error("--n must be >= 1")
