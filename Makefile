@@ -1,7 +1,7 @@
 # hairshade — the two commands of the README:
 #   make run    build, validate the BSDFs against Mitsuba 3, render the demo head with
 #               the rasterizer and with Mitsuba (prints tables, times, errors; images in out/)
-#   make test   build, then the whole test suite (cargo test, pytest, notebooks)
+#   make test   build, then the whole test suite (cargo test, pytest, notebooks, the docs site)
 # Everything else (virtual environment, Python packages, the LLVM library
 # Mitsuba's JIT variant wants) is installed by the targets below.
 
@@ -13,7 +13,7 @@ LLVM19 := /usr/lib/x86_64-linux-gnu/libLLVM-19.so
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test build llvm bench clean
+.PHONY: run test build llvm bench clean docs
 
 run: build
 	$(PY) -m hairshade validate
@@ -27,6 +27,13 @@ CARGO_TEST_DIR := target/cargo-test
 test: build
 	CARGO_TARGET_DIR=$(CARGO_TEST_DIR) cargo test --release --all-targets
 	$(PY) -m pytest -q tests --nbmake notebooks
+	$(MAKE) docs
+
+# The documentation site (docs/_build/index.html): topic pages and an API page
+# per public name; a warning (a broken reference, a malformed docstring) fails it.
+docs: build
+	rm -rf docs/_build docs/_generated
+	$(VENV)/bin/sphinx-build -E -W --keep-going -q -b html docs docs/_build
 
 $(STAMP): requirements-dev.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)

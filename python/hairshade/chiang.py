@@ -77,7 +77,7 @@ class ChiangHair(_models.Picklable):
     (lobes about 0.04 degrees wide). Mitsuba returns 0 everywhere at exactly 0.
 
     Frame: local y is the fiber tangent, z the shading normal; the offset h
-    is derived from ``wi`` (h = -x / |xz|). Directions need not be unit
+    is derived from ``wi`` (``h = -x / |xz|``, the length of wi's x-z part). Directions need not be unit
     length. A pair with a zero-length or non-finite direction evaluates to 0
     (pdf 0, sample weight 0), leaving the other pairs untouched.
 

@@ -17,17 +17,17 @@ class DEonHair(_models.Picklable):
     longitudinal term, azimuthal term integrated over the fiber offset h with
     a Gaussian detector).
 
-    ================ ================ ======================================
-    base_color       (0.3, 0.15, 0.08) C, RGB in [0, 1]; mu_a = -ln(C)/4
-    roughness        0.5              [0, 1], clamped to >= 1/255
-    shift            0.035            [-0.25, 0.25]
-    eta              1.55             (1, 3]
-    h_samples        None             None: adaptive quadrature converged to
-                                      1e-8 relative (f64); n in [1, 2^20]:
-                                      UE's stratified n-sample estimate
-    h_offset         0.5              [0, 1): the stratified samples' offset
-    components       R, TT, TRT       any subset
-    ================ ================ ======================================
+    ================ ================== ======================================
+    base_color       (0.3, 0.15, 0.08)  C, RGB in [0, 1]; mu_a = -ln(C)/4
+    roughness        0.5                [0, 1], clamped to >= 1/255
+    shift            0.035              [-0.25, 0.25]
+    eta              1.55               (1, 3]
+    h_samples        None               None: adaptive quadrature converged to
+                                        1e-8 relative (f64); n in [1, 2^20]:
+                                        UE's stratified n-sample estimate
+    h_offset         0.5                [0, 1): the stratified samples' offset
+    components       R, TT, TRT         any subset
+    ================ ================== ======================================
 
     Same vectors as KarisHair (world-space L, V, T). The result has no MS
     term and no separate cosine."""

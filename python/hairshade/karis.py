@@ -15,21 +15,21 @@ from .lighting import sh_coefficients
 class KarisHair(_models.Picklable):
     """UE4's ``HairShading()`` (Karis, SIGGRAPH 2016), term by term.
 
-    ==================== ================ ==========================================
-    base_color           (0.3, 0.15, 0.08) C, RGB, each in [0, 1]
-    specular             0.5              [0, 1]; scales R by 2*specular
-    roughness            0.5              [0, 1]; clamped to >= 1/255 as UE does
-    scatter              0.0              [0, 1]; Kajiya-Kay multiple-scattering weight
-    shift                0.035            [-0.25, 0.25]; alpha = (-2, 1, 4) * shift
-    backlit              1.0              [0, 1]; TT weight and R's back-lit lerp
-    area                 0.0              [0, 1]; added to every beta (area lights)
-    components           R, TT, TRT, MS   any subset; disabled lobes are not computed
-    separable_r          True             UE's bUseSeparableR (R width ~ cos(phi/2))
-    legacy_absorption    True             TT absorption pow(C, ...) (UE default)
-    corrected_absorption False            non-legacy only: use 2 sqrt(1-(ha)^2)/cos(theta_d)
-                                          instead of UE's 2 |1-(ha)^2/cos(theta_d)|
-    fast_asin            False            UE's asinFast for theta_d (abs. error 9e-3 rad)
-    ==================== ================ ==========================================
+    ==================== ================== ==========================================
+    base_color           (0.3, 0.15, 0.08)  C, RGB, each in [0, 1]
+    specular             0.5                [0, 1]; scales R by 2*specular
+    roughness            0.5                [0, 1]; clamped to >= 1/255 as UE does
+    scatter              0.0                [0, 1]; Kajiya-Kay multiple-scattering weight
+    shift                0.035              [-0.25, 0.25]; alpha = (-2, 1, 4) * shift
+    backlit              1.0                [0, 1]; TT weight and R's back-lit lerp
+    area                 0.0                [0, 1]; added to every beta (area lights)
+    components           R, TT, TRT, MS     any subset; disabled lobes are not computed
+    separable_r          True               UE's bUseSeparableR (R width ~ cos(phi/2))
+    legacy_absorption    True               TT absorption pow(C, ...) (UE default)
+    corrected_absorption False              non-legacy only: use 2 sqrt(1-(ha)^2)/cos(theta_d)
+                                            instead of UE's 2 abs(1-(ha)^2/cos(theta_d))
+    fast_asin            False              UE's asinFast for theta_d (abs. error 9e-3 rad)
+    ==================== ================== ==========================================
 
     Vectors are world-space: L towards the light, V towards the viewer, T
     the fiber tangent, each (N, 3) or (3,) (normalized internally). A pair

@@ -224,7 +224,7 @@ def rel_mse(image: npt.ArrayLike, reference: npt.ArrayLike, eps: float = 1e-2) -
 
 
 def side_by_side(image: npt.ArrayLike, reference: npt.ArrayLike) -> Image:
-    """[image | reference | |difference| scaled to the reference's 99th percentile]."""
+    """[image | reference | absolute difference scaled to the reference's 99th percentile]."""
     image, reference = np.asarray(image, dtype=np.float32), np.asarray(reference, dtype=np.float32)
     if image.shape != reference.shape:
         raise ValueError(f"image, reference: shapes {image.shape} and {reference.shape} differ")

@@ -130,7 +130,7 @@ def summary(rows: list[Row]) -> list[tuple[str, float, float, float, float, floa
 
 
 def markdown(rows: list[Row], title: str) -> str:
-    lines = [f"### {title}", ""]
+    lines = [f"## {title}", ""]
     lines += summary_markdown(rows)
     lines += ["", "| roughness | color | lobe | rel L2 | rel L2 (|θ| ≤ 50°) | max err | at (θi, θo, φ) deg |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for x in rows:
