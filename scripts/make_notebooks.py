@@ -1,9 +1,10 @@
-"""Writes notebooks/lobes.ipynb and notebooks/runtime_vs_error.ipynb from
-the cells below (the notebooks are committed; edit here and rerun to change
-them). With --execute they are run first (nbclient, in notebooks/) and
-committed with their outputs, figures as small PNGs (50 dpi).
+"""Writes notebooks/lobes.ipynb, notebooks/runtime_vs_error.ipynb and
+notebooks/presets.ipynb from the cells below (the notebooks are committed;
+edit here and rerun to change them). With --execute they are run first
+(nbclient, in notebooks/) and committed with their outputs, figures as small
+PNGs (50 dpi). --only NAME writes that notebook alone.
 
-    python scripts/make_notebooks.py --execute
+    python scripts/make_notebooks.py --execute [--only presets]
 """
 
 import sys
@@ -140,6 +141,8 @@ plt.plot(np.rad2deg(phi), (cl["R"] + cl["TT"] + cl["TRT"])[:, 0], ":", label="Ch
 plt.xlabel("φ (deg), θo = −θi"); plt.legend(fontsize=8);""")
 
 def write(path, cells):
+    if "--only" in sys.argv and not path.endswith(f"/{sys.argv[sys.argv.index('--only') + 1]}.ipynb"):
+        return
     nb = nbf.v4.new_notebook()
     nb["cells"] = cells
     nb["metadata"]["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
@@ -216,3 +219,46 @@ md("## A fast re-measurement of the rendering part")
 code("""rfast = bench_render.render_runtime_vs_error(fast=True, repeats=1, progress_bar=False)
 print(bench_render.summary(rfast))""")
 write("notebooks/runtime_vs_error.ipynb", cells)
+
+# -- the quality presets on a dense head --------------------------------------------
+cells = []
+md("""# The quality presets against path tracing
+
+A dense head (10k strands, key light) rendered with each quality preset,
+shown beside its converged path-traced truth (Mitsuba 3 `path`, max_depth
+64, `tests/data/dense`), with each preset's error and frame time. Renders
+are linear float32; `hs.show` displays one (sRGB, exposure in stops or
+`"auto"`).""")
+code("""import time
+import numpy as np
+import matplotlib.pyplot as plt
+import hairshade as hs
+
+plt.rcParams["figure.dpi"] = 50  # small PNG outputs in the committed notebook
+
+scene = hs.Scene.load("../tests/data/dense/auburn_key.json")
+scene.render = {}  # the presets decide every setting
+truth = hs.read_exr("../tests/data/dense/auburn_key.exr")
+hs.show(truth, exposure="auto")""")
+md("## Each preset: image, error against the truth, frame time")
+code("""rows = {}
+for q in ("fast", "balanced", "accurate"):
+    img = hs.render(scene, quality=q, progress=False)  # builds the shadow maps and lighting
+    t = time.perf_counter()
+    hs.render(scene, quality=q, progress=False)        # a frame that reuses them (a camera move)
+    rows[q] = dict(img=img, seconds=time.perf_counter() - t, rel_mse=hs.rel_mse(img, truth),
+                   ratio=img.reshape(-1, 3).mean(0) / truth.reshape(-1, 3).mean(0))
+    print(f"{q:9s} relMSE {rows[q]['rel_mse']:.2e}  mean/truth {np.round(rows[q]['ratio'], 3)}  "
+          f"{rows[q]['seconds'] * 1e3:.0f} ms")""")
+code("""exposure = -np.log2(np.percentile(truth, 99.5))
+hs.show(np.concatenate([truth] + [r["img"] for r in rows.values()], axis=1), exposure=exposure)""")
+md("Left to right: the truth, `fast`, `balanced`, `accurate`.")
+md("## Error against time")
+code("""fig, ax = plt.subplots(figsize=(5, 3.5))
+for q, r in rows.items():
+    ax.loglog(r["seconds"], r["rel_mse"], "o")
+    ax.annotate(q, (r["seconds"], r["rel_mse"]), textcoords="offset points", xytext=(6, 4))
+ax.set_xlabel("frame time (s, this machine)")
+ax.set_ylabel("relMSE against the truth")
+ax.grid(True, which="both", alpha=0.3);""")
+write("notebooks/presets.ipynb", cells)
