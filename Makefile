@@ -13,7 +13,7 @@ LLVM19 := /usr/lib/x86_64-linux-gnu/libLLVM-19.so
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test build llvm bench clean docs
+.PHONY: run test build llvm bench clean docs wheel
 
 run: build
 	$(PY) -m hairshade validate
@@ -28,6 +28,14 @@ test: build
 	CARGO_TARGET_DIR=$(CARGO_TEST_DIR) cargo test --release --all-targets
 	$(PY) -m pytest -q tests --nbmake notebooks
 	$(MAKE) docs
+
+# The wheel for manylinux2014 (glibc 2.17 and later), built with zig, into
+# target/wheels/ (scripts/wheel_check.sh installs and tries it).
+wheel: $(STAMP)
+	$(PY) -m pip install -q ziglang auditwheel
+	mkdir -p $(VENV)/zig && printf '#!/bin/sh\nexec $(abspath $(PY)) -m ziglang "$$@"\n' > $(VENV)/zig/zig && chmod +x $(VENV)/zig/zig
+	PATH=$(abspath $(VENV))/zig:$$PATH CARGO_TARGET_DIR=target/zig $(VENV)/bin/maturin build --release --zig \
+		--compatibility manylinux2014 -o target/wheels -q
 
 # The documentation site (docs/_build/index.html): topic pages and an API page
 # per public name; a warning (a broken reference, a malformed docstring) fails it.
