@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import signal
 import struct
 import subprocess
@@ -674,3 +675,70 @@ def test_16b_eval_env_refuses_coefficients_float32_cannot_carry():
         k.eval_env(v, t, [3e38] * 3)
     assert np.isfinite(k.eval_env(v, t, np.full((9, 3), 1e30))).all()
     assert np.isfinite(k.eval_env(v.astype(np.float64), t.astype(np.float64), [3e38] * 3)).all()
+
+
+CAMERA = {"position": [0, 0, 3], "target": [0, 0, 0], "resolution": [32, 18]}
+LIGHT = {"type": "directional", "direction": [1, 1, 1], "intensity": [3, 3, 3], "shadows": True}
+
+
+def test_17_messages_show_keys_and_names_as_visible_text(tmp_path):
+    """A zero-width space, an ANSI escape or a right-to-left override in a
+    key, and a newline in an output name, reach the terminal escaped
+    (\\u200b, \\x1b, \\u202e, \\n): SceneError escapes its whole text, the
+    CLI its file names. A NUL in a file name is refused by name; a key given
+    twice in one JSON object is an error naming it (json kept the last)."""
+    strand = {"strands": [{"points": [[0, -0.5, 0], [0, 0.5, 0]], "radius": 0.01}]}
+    for key, shown in (("qua\u200blity", "qua\\u200blity"), ("\x1b[31mred", "\\x1b[31mred"),
+                       ("a\u202eb", "a\\u202eb")):
+        with pytest.raises(hs.SceneError) as e:
+            hs.Scene.from_dict({"hairshade_scene": 1, "camera": CAMERA, "hair": strand, "render": {key: 1}})
+        assert shown in str(e.value) and str(e.value).isprintable(), str(e.value)
+    with pytest.raises(hs.SceneError, match=r"s\\x00\.json: the file name contains a NUL character"):
+        hs.Scene.load(str(tmp_path / "s\x00.json"))
+    dup = tmp_path / "dup.json"
+    dup.write_text('{"hairshade_scene": 1, "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "fov": 40, '
+                   '"fov": 50}, "hair": {}}')
+    with pytest.raises(hs.SceneError, match="the key 'fov' appears twice"):
+        hs.Scene.load(str(dup))
+    p = scene(tmp_path, strand)
+    out = subprocess.run([sys.executable, "-m", "hairshade", "render", str(p), "-o", str(tmp_path / "a\nfake: line.exr")],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and "a\\nfake: line.exr" in out.stdout and "\nfake" not in out.stdout, out.stdout
+
+
+def test_18_command_line_refuses_before_writing(tmp_path):
+    """`compare --png x.txt` is refused (it wrote a PNG named x.txt), and
+    `--exposure 1000` before the EXR is written (it was refused after, or
+    not at all with -o NAME.exr); an existing output is replaced with a
+    note; a render that does not fit in memory is one line, no traceback."""
+    strand = {"strands": [{"points": [[0, -0.5, 0], [0, 0.5, 0]], "radius": 0.01}]}
+    p = scene(tmp_path, strand)
+    run = lambda *a, **k: subprocess.run([sys.executable, "-m", "hairshade", *a], capture_output=True,  # noqa: E731
+                                         text=True, timeout=120, cwd=tmp_path, **k)
+    assert run("render", str(p), "-o", "a.exr").returncode == 0
+    r = run("compare", "a.exr", "a.exr", "--no-flip", "--png", "x.txt")
+    assert r.returncode == 2 and "--png: x.txt" in r.stderr and not (tmp_path / "x.txt").exists(), r.stderr
+    r = run("render", str(p), "-o", "b.exr", "--exposure", "1000")
+    assert r.returncode == 2 and "--exposure" in r.stderr and "[-100, 100]" in r.stderr
+    assert not (tmp_path / "b.exr").exists()
+    r = run("render", str(p), "-o", "a.exr")
+    assert r.returncode == 0 and "note: replacing a.exr" in r.stderr
+    cap = lambda: resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))  # noqa: E731
+    r = run("render", str(p), "--width", "16384", "--height", "16384", "-o", "big.exr", preexec_fn=cap)
+    assert r.returncode == 2 and r.stderr.startswith("error: out of memory: render: needs about"), r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_19_numbers_in_messages_are_short_and_complex_points_refused():
+    """A value far out of range is printed in exponent form (1e39 was
+    printed with 40 digits, f64::MAX with 309); complex points are refused
+    (they lost their imaginary part silently)."""
+    strand = {"strands": [{"points": [[0, -0.5, 0], [0, 0.5, 0]], "radius": 0.01}]}
+    with pytest.raises(hs.SceneError, match=r"render\.shadows\.exponential\.density: must be finite \(as a float32\), "
+                                            r"got 1e39$"):
+        hs.Scene.from_dict({"hairshade_scene": 1, "camera": CAMERA, "hair": strand, "lights": [LIGHT],
+                            "render": {"shadows": {"exponential": {"density": 1e39}}}})
+    with pytest.raises(ValueError, match=r"roughness: must be in \[0, 1\], got 1\.7976931348623157e308"):
+        hs.KarisHair(roughness=1.7976931348623157e308)
+    with pytest.raises(hs.SceneError, match="points: expected real numbers, got complex ones"):
+        hs.Scene.from_arrays(np.array([[0, 0, 0], [0, 1, 0]], complex), 0.01, [0, 2])

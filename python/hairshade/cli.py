@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__, _extras
+from ._errors import escaped
 
 # What each command needs beyond numpy (import names; see _extras.EXTRAS).
 # The Mitsuba bridge imports scipy (hairshade.mapping), which [mitsuba] installs.
@@ -173,6 +174,14 @@ def _finite(text: str) -> float:
     return x
 
 
+def _exposure(text: str) -> float:
+    """An argparse type: an exposure in stops, finite, in [-100, 100]."""
+    x = _finite(text)
+    if abs(x) > 100:
+        raise argparse.ArgumentTypeError(f"expected a number of stops in [-100, 100], got {text!r}")
+    return x
+
+
 def _at_least_one(text: str) -> int:
     """An argparse type: a whole number >= 1."""
     try:
@@ -270,14 +279,16 @@ def cmd_render(args: argparse.Namespace) -> int:
     dt = time.perf_counter() - t
     # The image itself in the format its name asks for; --png adds a preview
     # next to an EXR (a PNG output is the preview already).
+    if os.path.exists(out):
+        print(f"note: replacing {escaped(out)}", file=sys.stderr)
     (write_exr if ext == ".exr" else lambda p, im: write_png(p, im, exposure=args.exposure))(out, img)
-    print(f"{args.scene}: {img.shape[1]}x{img.shape[0]} in {dt * 1000:.0f} ms "
+    print(f"{escaped(args.scene)}: {img.shape[1]}x{img.shape[0]} in {dt * 1000:.0f} ms "
           f"({stats['segments_visible']} visible segments, {stats['fragments']} fragments, "
-          f"{stats['strands_drawn']} strands drawn) -> {out}")
+          f"{stats['strands_drawn']} strands drawn) -> {escaped(out)}")
     if args.png and ext == ".exr":
         png = os.path.splitext(out)[0] + ".png"
         write_png(png, img, exposure=args.exposure)
-        print(f"preview -> {png}")
+        print(f"preview -> {escaped(png)}")
     return 0
 
 
@@ -327,6 +338,10 @@ def _flip(img: np.ndarray, ref: np.ndarray) -> tuple[float, str]:
 def cmd_compare(args: argparse.Namespace) -> int:
     from .render import read_exr, rel_mse, side_by_side, write_png
 
+    if args.png and os.path.splitext(args.png)[1].lower() != ".png":
+        print(f"error: --png: {escaped(args.png)}: the side-by-side picture is a PNG; name it NAME.png", file=sys.stderr)
+        return 2
+
     if not args.no_flip:
         _extras.check(["flip_evaluator"], "hairshade compare (FLIP; --no-flip skips it)")
     a, b = read_exr(args.image), read_exr(args.reference)
@@ -345,7 +360,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print(f"note: {why}", file=sys.stderr)
     if args.png:
         write_png(args.png, side_by_side(a, b), exposure=args.exposure)
-        print(f"side by side [image | reference | error] -> {args.png}")
+        print(f"side by side [image | reference | error] -> {escaped(args.png)}")
     return 0
 
 
@@ -395,7 +410,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", help="scene file (.json), or the name of a shipped example (strand_head, card_head, ...)")
     r.add_argument("-o", "--output", help="output image, .exr or .png (default: <scene>.exr)")
     r.add_argument("--png", action="store_true", help="also write an sRGB PNG preview")
-    r.add_argument("--exposure", type=_finite, default=0.0, help="PNG exposure in stops")
+    r.add_argument("--exposure", type=_exposure, default=0.0, help="PNG exposure in stops, in [-100, 100]")
     r.add_argument("--allow-outside", action="store_true",
                    help="let the scene read files outside its folder (default: only files inside it)")
     r.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
@@ -418,7 +433,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("image", help="the image to measure (EXR)")
     c.add_argument("reference", help="the reference it is compared with (EXR, same size)")
     c.add_argument("--png", help="write a side-by-side PNG [image | reference | error]")
-    c.add_argument("--exposure", type=_finite, default=0.0, help="exposure of the --png picture in stops (default 0)")
+    c.add_argument("--exposure", type=_exposure, default=0.0,
+                   help="exposure of the --png picture in stops, in [-100, 100] (default 0)")
     c.add_argument("--no-flip", action="store_true", help="relMSE only (FLIP needs hairshade[flip])")
     c.set_defaults(func=cmd_compare)
     dm = sub.add_parser("demo", help="the demo head with each quality preset beside its converged truth, and Mitsuba "
@@ -434,7 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
     dm.add_argument("--mitsuba-equal", action="store_true",
                     help="also render Mitsuba at the spp that reaches the balanced preset's error, and time it "
                          "(minutes on 2 cores; by default that time is estimated from the --spp render)")
-    dm.add_argument("--exposure", type=_finite, default=1.0, help="PNG exposure in stops (default 1)")
+    dm.add_argument("--exposure", type=_exposure, default=1.0, help="PNG exposure in stops, in [-100, 100] (default 1)")
     dm.set_defaults(func=cmd_demo)
     return p
 
@@ -448,7 +464,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except (ValueError, OSError, _extras.MissingExtra) as e:  # SceneError is a ValueError
-        print(f"error: {e}", file=sys.stderr)
+        print(f"error: {escaped(str(e))}", file=sys.stderr)
+        return 2
+    except MemoryError as e:
+        print(f"error: out of memory{': ' + escaped(str(e)) if str(e) else ''}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("\ninterrupted", file=sys.stderr)

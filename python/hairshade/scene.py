@@ -164,11 +164,13 @@ class Scene:
         path = os.fspath(path)
         text = read_text(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{path}: {msg}"))
         try:
-            data = json.loads(text)
+            data = json.loads(text, object_pairs_hook=_unique_keys)
         except json.JSONDecodeError as e:
             raise SceneError(f"{path}: not valid JSON ({e})") from None
         except RecursionError:
             raise SceneError(f"{path}: not valid JSON (nested too deeply)") from None
+        except SceneError as e:  # a duplicate key
+            raise SceneError(f"{path}: {e}") from None
         except ValueError as e:  # an integer beyond Python's digit limit
             raise SceneError(f"{path}: not valid JSON ({e})") from None
         return cls.from_dict(data, base_dir=os.path.dirname(os.path.abspath(path)), source=path,
@@ -241,6 +243,8 @@ def read_bytes(path: str, limit: int, error: Any) -> bytes:
     ``error(message)`` builds the exception raised otherwise. Opened without
     blocking (a FIFO or a device would otherwise wait for a writer before
     the check that refuses it)."""
+    if "\x00" in path:
+        raise error("the file name contains a NUL character")
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
         with os.fdopen(fd, "rb") as f:
@@ -269,6 +273,17 @@ def read_text(path: str, limit: int, error: Any) -> str:
         raise error(f"not UTF-8 text (byte {e.start})") from None
 
 # -- validation helpers --------------------------------------------------------
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object as a dict, refusing a key given twice (json keeps the
+    last silently)."""
+    d: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in d:
+            raise SceneError(f"the key {k!r} appears twice in one object (which one was meant?)")
+        d[k] = v
+    return d
 
 
 class _Ctx:
@@ -341,6 +356,9 @@ class _Ctx:
 
 def _strand_arrays(points: npt.ArrayLike, radii: npt.ArrayLike, offsets: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Checked flat strand arrays: (points (M, 3) f64, radii (M,) f64, offsets (S + 1,) int64)."""
+    for name, a in (("points", points), ("radii", radii)):
+        if np.iscomplexobj(a):
+            raise SceneError(f"{name}: expected real numbers, got complex ones")
     p = np.asarray(points, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
         raise SceneError(f"points: expected shape (M, 3), got {p.shape}")

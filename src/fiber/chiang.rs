@@ -60,7 +60,7 @@ pub use table_simd::{eval_range as table_eval_range, Pairs};
 
 use crate::fiber::frame::{azimuth, offset, sin_cos_theta, Vec3};
 use crate::fiber::lobes::{deon_mp, deon_mp_mitsuba};
-use crate::fiber::{param_error, ParamError};
+use crate::fiber::{number_text, param_error, ParamError};
 use crate::math::{
     circ, fresnel_dielectric, safe_asin, safe_sqrt, trimmed_logistic, trimmed_logistic_inv_norm,
     wrap_pi, Real,
@@ -168,7 +168,7 @@ impl ChiangParams {
                 if !v.is_finite() || v < 0.0 {
                     return Err(param_error(
                         name,
-                        format!("must be finite and >= 0, got {v}"),
+                        format!("must be finite and >= 0, got {}", number_text(v)),
                     ));
                 }
             }
@@ -178,7 +178,10 @@ impl ChiangParams {
             ("azimuthal_roughness", self.azimuthal_roughness),
         ] {
             if !(0.0..=1.0).contains(&v) {
-                return Err(param_error(name, format!("must be in [0, 1], got {v}")));
+                return Err(param_error(
+                    name,
+                    format!("must be in [0, 1], got {}", number_text(v)),
+                ));
             }
         }
         if !(-90.0..=90.0).contains(&self.scale_tilt) {

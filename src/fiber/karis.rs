@@ -54,7 +54,7 @@ use crate::fiber::lobes::{
     asin_fast, color_to_absorption, d_trt_fit, d_tt_fit, eta_prime_fit, gaussian, h_tt_fit,
     HAIR_LUMA,
 };
-use crate::fiber::{param_error, ParamError};
+use crate::fiber::{number_text, param_error, ParamError};
 use crate::lighting::sh9_eval;
 use crate::math::Real;
 
@@ -136,7 +136,12 @@ fn check_range(name: &'static str, v: f64, lo: f64, hi: f64) -> Result<(), Param
     } else {
         Err(param_error(
             name,
-            format!("must be in [{lo}, {hi}], got {v}"),
+            format!(
+                "must be in [{}, {}], got {}",
+                number_text(lo),
+                number_text(hi),
+                number_text(v)
+            ),
         ))
     }
 }

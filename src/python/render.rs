@@ -6,6 +6,7 @@
 
 use super::convert::{run_polling, to_numpy};
 use super::scene_args::{build_scene, SceneArgs};
+use crate::fiber::number_text;
 use crate::raster::lod::Lod;
 use crate::raster::scene::{Backscatter, MultipleScattering, RenderOptions, Transparency};
 use crate::raster::shadow::ShadowModel;
@@ -41,10 +42,21 @@ impl<'py> OptionReader<'_, 'py> {
         let x =
             number(&v).ok_or_else(|| err(key, format!("expected a number, got {}", repr(&v))))?;
         if !(x.is_finite() && (x as f32).is_finite()) {
-            return Err(err(key, format!("must be finite (as a float32), got {x}")));
+            return Err(err(
+                key,
+                format!("must be finite (as a float32), got {}", number_text(x)),
+            ));
         }
         if !(lo..=hi).contains(&x) {
-            return Err(err(key, format!("must be in [{lo}, {hi}], got {x}")));
+            return Err(err(
+                key,
+                format!(
+                    "must be in [{}, {}], got {}",
+                    number_text(lo),
+                    number_text(hi),
+                    number_text(x)
+                ),
+            ));
         }
         Ok(x)
     }
@@ -56,7 +68,12 @@ impl<'py> OptionReader<'_, 'py> {
         if x.fract() != 0.0 {
             return Err(err(
                 key,
-                format!("must be an integer in [{lo}, {hi}], got {x}"),
+                format!(
+                    "must be an integer in [{}, {}], got {}",
+                    number_text(lo),
+                    number_text(hi),
+                    number_text(x)
+                ),
             ));
         }
         Ok(x as i64)
