@@ -9,6 +9,11 @@ head's KarisHair, two halves whose relMSE against each other is 1.2e-3
 (stored as float16: relMSE 1.1e-8 against the float32 original). So the
 errors printed are errors, not the noise of a quick reference. Even a
 perfect KarisHair renderer keeps the two models' difference against it.
+It was rendered with ``cuda_ad_rgb``, whose curves render a single fiber
+1.5-1.8% darker than the exact computation and scatter less from fiber
+to fiber (``docs/mitsuba_backends.md``; on the dense heads cuda was
+0.2-4.5% darker than ``llvm_ad_rgb``): read the preset's mean ratios with
+that in mind.
 
 Mitsuba renders the same scene once at ``mitsuba_spp`` (default 32),
 loaded once and timed through drjit (render and read-back). Its error
