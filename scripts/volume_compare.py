@@ -84,10 +84,14 @@ def timed(scene, **kw):
 
 
 def heads(tmp: str) -> list[tuple[str, pathlib.Path, pathlib.Path]]:
-    """(name, scene file, reference directory) of every ChiangHair head."""
+    """(name, scene file, reference directory) of every ChiangHair head
+    with a truth and its max_depth-2 render."""
     out = [(n, DENSE / f"{n}.json", DENSE) for n in CHIANG]
     for n in held_out_heads.HEADS:
-        out.append((n, pathlib.Path(held_out_heads.write_head(tmp, n)), HELD))
+        if (HELD / f"{n}.exr").exists() and (HELD / f"{n}_depth2.exr").exists():
+            out.append((n, pathlib.Path(held_out_heads.write_head(tmp, n)), HELD))
+        else:
+            print(f"{n}: no reference in {HELD}, left out", flush=True)
     return out
 
 
