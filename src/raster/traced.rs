@@ -16,6 +16,9 @@ pub struct SegmentGrid {
     start: Vec<u32>,
     items: Vec<u32>,
     segments: Vec<Capsule>,
+    /// Per world segment, its capsule's index in `segments` (u32::MAX: a
+    /// segment left out as not finite).
+    capsule_of: Vec<u32>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -36,11 +39,11 @@ struct Capsule {
 
 impl Capsule {
     /// Whether the ray (o, unit d, t in [0, t_max]) may meet the capsule
-    /// (the cheap tests before [`hits_capsule`]): it passes the bounding
+    /// (the cheap tests before [`capsule_hit`]): it passes the bounding
     /// sphere, and the ray's line passes the axis's line within the radius
     /// (both lines unbounded: a lower bound of the distance between ray
     /// and segment). Both are padded by 1e-4 relative, so that rounding
-    /// never rejects a ray [`hits_capsule`] would accept.
+    /// never rejects a ray [`capsule_hit`] would accept.
     #[inline]
     fn may_hit(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         let w = self.a + 0.5 * self.u - o;
@@ -79,6 +82,10 @@ impl SegmentGrid {
             .collect();
         if caps.is_empty() {
             return None;
+        }
+        let mut capsule_of = vec![u32::MAX; segments.len()];
+        for (k, c) in caps.iter().enumerate() {
+            capsule_of[c.segment as usize] = k as u32;
         }
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         let mut mean_len = 0.0f64;
@@ -150,19 +157,54 @@ impl SegmentGrid {
             start,
             items,
             segments: caps,
+            capsule_of,
         })
+    }
+
+    /// The ray parameter at which the ray leaves the infinite cylinder
+    /// around `fiber`'s own segment (0 when it starts outside and never
+    /// enters, or for a point on no strand; infinite along the axis).
+    fn own_tube_exit(&self, o: Vec3, d: Vec3, fiber: &super::shade::Fiber) -> f32 {
+        let Some(&k) = self.capsule_of.get(fiber.segment as usize) else {
+            return 0.0;
+        };
+        let Some(c) = self.segments.get(k as usize) else {
+            return 0.0;
+        };
+        if c.strand != fiber.strand {
+            return 0.0;
+        }
+        let axis = c.u.normalize_or_zero();
+        let w = o - c.a;
+        let (wp, dp) = (w - axis * w.dot(axis), d - axis * d.dot(axis));
+        let (a, b, cc) = (dp.dot(dp), 2.0 * wp.dot(dp), wp.dot(wp) - c.r2);
+        if a < 1e-12 {
+            return if cc <= 0.0 { f32::INFINITY } else { 0.0 };
+        }
+        let disc = b * b - 4.0 * a * cc;
+        if disc < 0.0 {
+            return 0.0;
+        }
+        ((-b + disc.sqrt()) / (2.0 * a)).max(0.0)
     }
 
     /// Bytes held by the grid.
     pub fn bytes(&self) -> usize {
-        (self.start.len() + self.items.len()) * 4
+        (self.start.len() + self.items.len() + self.capsule_of.len()) * 4
             + self.segments.len() * std::mem::size_of::<Capsule>()
     }
 
     /// Whether the ray from `o` along unit `d`, up to `t_max`, meets a
     /// segment other than the receiver's own `fiber` and its neighbours on
-    /// the same strand (the ray leaves the fiber it starts on).
+    /// the same strand (the ray leaves the fiber it starts on). A ray that
+    /// runs inside its own fiber's tube (light from behind the fiber, nearly
+    /// along it) passes the rest of its own strand until it leaves the tube
+    /// around its own segment's axis: the fiber scatters as one surface
+    /// event, as a path tracer's curve does (a ray leaving a curve does not
+    /// meet that curve again from inside). Beyond that its own strand
+    /// shadows like any other (a curl turning back).
     pub fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, fiber: &super::shade::Fiber) -> bool {
+        let t_own = self.own_tube_exit(o, d, fiber);
         // Clip the ray to the grid's box.
         let hi = self.origin
             + Vec3::new(
@@ -204,11 +246,11 @@ impl SegmentGrid {
             let range = self.start[ci] as usize..self.start[ci + 1] as usize;
             for &i in &self.items[range] {
                 let s = &self.segments[i as usize];
-                if s.may_hit(o, d, t_max)
-                    && !fiber.is_local(s.strand, s.segment)
-                    && hits_capsule(o, d, t_max, s)
-                {
-                    return true;
+                if s.may_hit(o, d, t_max) && !fiber.is_local(s.strand, s.segment) {
+                    match capsule_hit(o, d, t_max, s) {
+                        Some(t) if s.strand != fiber.strand || t > t_own => return true,
+                        _ => {}
+                    }
                 }
             }
             let k = if next[0] < next[1] {
@@ -256,11 +298,12 @@ fn segment_crosses_box(a: Vec3, b: Vec3, lo: Vec3, hi: Vec3) -> bool {
     true
 }
 
-/// Whether the ray (o, unit d, t in (0, t_max]) meets the capsule: its
+/// Whether the ray (o, unit d, t in (0, t_max]) meets the capsule (its
 /// closest approach to the segment is within the radius, and its origin is
-/// outside the capsule.
+/// outside the capsule): the ray parameter of that closest approach, or
+/// None.
 #[inline]
-fn hits_capsule(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> bool {
+fn capsule_hit(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> Option<f32> {
     // Closest points between the ray and the segment (Ericson, 5.1.9).
     let u = s.u;
     let w = o - s.a;
@@ -277,7 +320,7 @@ fn hits_capsule(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> bool {
         0.0
     };
     if (w - u * t0).length_squared() <= s.r2 {
-        return false;
+        return None;
     }
     let (a, b, c) = (1.0, d.dot(u), u.dot(u));
     let (dd, e) = (d.dot(w), u.dot(w));
@@ -298,7 +341,7 @@ fn hits_capsule(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> bool {
         tc = ((b * sc + e) / c).clamp(0.0, 1.0);
     }
     let gap = (o + d * sc) - (s.a + u * tc);
-    gap.length_squared() <= s.r2
+    (gap.length_squared() <= s.r2).then_some(sc)
 }
 
 #[cfg(test)]
@@ -420,5 +463,67 @@ mod tests {
         .unwrap();
         assert!(above.occluded(o, up, f32::INFINITY, &own));
         assert!(!above.occluded(o, -up, f32::INFINITY, &own));
+    }
+
+    /// 3. A ray that runs inside its own fiber (light from behind, nearly
+    ///    along a strand of short segments) passes the rest of its own
+    ///    strand; another strand on its way, and its own strand turning back
+    ///    across it outside the tube, still shadow it.
+    #[test]
+    fn t03_a_ray_inside_its_own_fiber_passes_its_strand() {
+        let r = 0.01;
+        // strand 0: 40 segments of 0.05 along x; strand 1 crosses at x = 1.5
+        let mut segs: Vec<WorldSegment> = (0..40)
+            .map(|i| WorldSegment {
+                a: Vec3::new(i as f32 * 0.05, 0.0, 0.0),
+                b: Vec3::new((i + 1) as f32 * 0.05, 0.0, 0.0),
+                ra: r,
+                rb: r,
+                strand: 0,
+                vertex: 0,
+            })
+            .collect();
+        let own = Fiber {
+            radius: r,
+            strand: 0,
+            segment: 10,
+        };
+        // on segment 10's surface (x = 0.525, y = r), into the fiber, 0.5 degrees off its axis
+        let o = Vec3::new(0.525, r, 0.0);
+        let d = Vec3::new(1.0, -0.00873, 0.0).normalize();
+        let grid = SegmentGrid::new(&segs).unwrap();
+        assert!(
+            !grid.occluded(o, d, f32::INFINITY, &own),
+            "own strand ahead, inside the tube"
+        );
+        segs.push(WorldSegment {
+            a: Vec3::new(1.5, -0.5, 0.0),
+            b: Vec3::new(1.5, 0.5, 0.0),
+            ra: r,
+            rb: r,
+            strand: 1,
+            vertex: 0,
+        });
+        let crossed = SegmentGrid::new(&segs).unwrap();
+        assert!(
+            crossed.occluded(o, d, f32::INFINITY, &own),
+            "another strand on the way"
+        );
+        // the own strand turning back across the ray beyond where the ray
+        // leaves the cylinder around its own segment (t = 2.29, x = 2.81)
+        segs.pop();
+        segs.push(WorldSegment {
+            a: Vec3::new(3.0, -0.3, 0.0),
+            b: Vec3::new(3.0, 0.3, 0.0),
+            ra: r,
+            rb: r,
+            strand: 0,
+            vertex: 0,
+        });
+        let curl = SegmentGrid::new(&segs).unwrap();
+        assert!(
+            curl.occluded(o, d, f32::INFINITY, &own),
+            "own strand outside the tube"
+        );
     }
 }
