@@ -162,30 +162,15 @@ impl SegmentGrid {
     }
 
     /// The ray parameter at which the ray leaves the infinite cylinder
-    /// around `fiber`'s own segment (0 when it starts outside and never
-    /// enters, or for a point on no strand; infinite along the axis).
+    /// around `fiber`'s own segment (0 for a point on no strand).
     fn own_tube_exit(&self, o: Vec3, d: Vec3, fiber: &super::shade::Fiber) -> f32 {
         let Some(&k) = self.capsule_of.get(fiber.segment as usize) else {
             return 0.0;
         };
-        let Some(c) = self.segments.get(k as usize) else {
-            return 0.0;
-        };
-        if c.strand != fiber.strand {
-            return 0.0;
+        match self.segments.get(k as usize) {
+            Some(c) if c.strand == fiber.strand => tube_exit(o, d, c),
+            _ => 0.0,
         }
-        let axis = c.u.normalize_or_zero();
-        let w = o - c.a;
-        let (wp, dp) = (w - axis * w.dot(axis), d - axis * d.dot(axis));
-        let (a, b, cc) = (dp.dot(dp), 2.0 * wp.dot(dp), wp.dot(wp) - c.r2);
-        if a < 1e-12 {
-            return if cc <= 0.0 { f32::INFINITY } else { 0.0 };
-        }
-        let disc = b * b - 4.0 * a * cc;
-        if disc < 0.0 {
-            return 0.0;
-        }
-        ((-b + disc.sqrt()) / (2.0 * a)).max(0.0)
     }
 
     /// Bytes held by the grid.
@@ -239,6 +224,34 @@ impl SegmentGrid {
                 f32::INFINITY
             };
         }
+        // Other strands whose tube the ray starts in (fibers that
+        // interpenetrate): each is passed as the own strand is, until the
+        // ray leaves the cylinder of the capsule that holds the origin (a
+        // path tracer's ray leaves a curve it starts inside unblocked).
+        let mut inside = [(u32::MAX, 0.0f32); 8];
+        let mut n_inside = 0;
+        if t_enter == 0.0 {
+            let ci =
+                ((c[2] as usize * self.dims[1]) + c[1] as usize) * self.dims[0] + c[0] as usize;
+            for &i in &self.items[self.start[ci] as usize..self.start[ci + 1] as usize] {
+                let s = &self.segments[i as usize];
+                if s.strand != fiber.strand && contains(o, s) {
+                    let t_leave = tube_exit(o, d, s);
+                    if let Some(e) = inside[..n_inside].iter_mut().find(|e| e.0 == s.strand) {
+                        e.1 = e.1.max(t_leave);
+                    } else if n_inside < inside.len() {
+                        inside[n_inside] = (s.strand, t_leave);
+                        n_inside += 1;
+                    }
+                }
+            }
+        }
+        let passed = |strand: u32, t: f32| {
+            (strand == fiber.strand && t <= t_own)
+                || inside[..n_inside]
+                    .iter()
+                    .any(|&(st, t_leave)| st == strand && t <= t_leave)
+        };
         let mut t = t_enter;
         while t <= t_exit {
             let ci =
@@ -247,9 +260,10 @@ impl SegmentGrid {
             for &i in &self.items[range] {
                 let s = &self.segments[i as usize];
                 if s.may_hit(o, d, t_max) && !fiber.is_local(s.strand, s.segment) {
-                    match capsule_hit(o, d, t_max, s) {
-                        Some(t) if s.strand != fiber.strand || t > t_own => return true,
-                        _ => {}
+                    if let Some(t) = capsule_hit(o, d, t_max, s) {
+                        if !passed(s.strand, t) {
+                            return true;
+                        }
                     }
                 }
             }
@@ -273,6 +287,37 @@ impl SegmentGrid {
         }
         false
     }
+}
+
+/// The ray parameter at which the ray leaves the infinite cylinder around
+/// the capsule's axis (0 when it starts outside and never enters; infinite
+/// along the axis from inside).
+fn tube_exit(o: Vec3, d: Vec3, c: &Capsule) -> f32 {
+    let axis = c.u.normalize_or_zero();
+    let w = o - c.a;
+    let (wp, dp) = (w - axis * w.dot(axis), d - axis * d.dot(axis));
+    let (a, b, cc) = (dp.dot(dp), 2.0 * wp.dot(dp), wp.dot(wp) - c.r2);
+    if a < 1e-12 {
+        return if cc <= 0.0 { f32::INFINITY } else { 0.0 };
+    }
+    let disc = b * b - 4.0 * a * cc;
+    if disc < 0.0 {
+        return 0.0;
+    }
+    ((-b + disc.sqrt()) / (2.0 * a)).max(0.0)
+}
+
+/// Whether `o` lies inside the capsule.
+#[inline]
+fn contains(o: Vec3, c: &Capsule) -> bool {
+    let w = o - c.a;
+    let uu = c.u.dot(c.u);
+    let t0 = if uu > 0.0 {
+        (c.u.dot(w) / uu).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (w - c.u * t0).length_squared() <= c.r2
 }
 
 /// Whether the segment `a`–`b` meets the box `[lo, hi]` (slab test over
@@ -524,6 +569,51 @@ mod tests {
         assert!(
             curl.occluded(o, d, f32::INFINITY, &own),
             "own strand outside the tube"
+        );
+    }
+
+    /// 4. A ray that starts inside another strand's tube (fibers that
+    ///    interpenetrate) passes that strand until it leaves the tube, as it
+    ///    passes its own; a third strand on the way still shadows it.
+    #[test]
+    fn t04_a_ray_starting_inside_another_fiber_passes_it() {
+        let r = 0.01;
+        let strand = |k: u32, y: f32| {
+            (0..40).map(move |i| WorldSegment {
+                a: Vec3::new(i as f32 * 0.05, y, 0.0),
+                b: Vec3::new((i + 1) as f32 * 0.05, y, 0.0),
+                ra: r,
+                rb: r,
+                strand: k,
+                vertex: 0,
+            })
+        };
+        // the receiver on strand 0 at x = 0.525; strand 1 runs 0.5 r beside it
+        let mut segs: Vec<WorldSegment> = strand(0, 0.0).chain(strand(1, 0.005)).collect();
+        let own = Fiber {
+            radius: r,
+            strand: 0,
+            segment: 10,
+        };
+        let o = Vec3::new(0.525, r, 0.0); // inside strand 1's tube (0.005 from its axis)
+        let d = Vec3::new(1.0, -0.00873, 0.0).normalize();
+        let grid = SegmentGrid::new(&segs).unwrap();
+        assert!(
+            !grid.occluded(o, d, f32::INFINITY, &own),
+            "strand 1, started inside"
+        );
+        segs.extend((0..1).map(|_| WorldSegment {
+            a: Vec3::new(1.5, -0.5, 0.0),
+            b: Vec3::new(1.5, 0.5, 0.0),
+            ra: r,
+            rb: r,
+            strand: 2,
+            vertex: 0,
+        }));
+        let crossed = SegmentGrid::new(&segs).unwrap();
+        assert!(
+            crossed.occluded(o, d, f32::INFINITY, &own),
+            "strand 2 on the way"
         );
     }
 }
