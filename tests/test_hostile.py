@@ -742,3 +742,22 @@ def test_19_numbers_in_messages_are_short_and_complex_points_refused():
         hs.KarisHair(roughness=1.7976931348623157e308)
     with pytest.raises(hs.SceneError, match="points: expected real numbers, got complex ones"):
         hs.Scene.from_arrays(np.array([[0, 0, 0], [0, 1, 0]], complex), 0.01, [0, 2])
+
+
+def test_20_hair_header_counts_checked_against_the_file_size(tmp_path):
+    """A 152-byte `.hair` whose header claims 2^32 - 1 strands and points
+    (a 32 GiB np.full before any size check) is refused from its header
+    under a 1.5 GiB cap, naming the file; as is one claiming more strands
+    than its points can make."""
+    from hairshade.hairfile import HEADER
+
+    cases = {}
+    for name, strands, points in (("huge", 2**32 - 1, 2**32 - 1), ("strands", 2**32 - 1, 2)):
+        h = np.zeros(1, HEADER)
+        h["magic"], h["strands"], h["points"], h["flags"] = b"HAIR", strands, points, 0x2
+        (tmp_path / f"{name}.hair").write_bytes(h.tobytes() + b"\0" * 24)
+        p = scene(tmp_path, {"file": f"{name}.hair"}, name=f"{name}.json")
+        cases[name] = f"hs.Scene.load({str(p)!r})"
+    r = run_cases(cases, timeout=30)
+    expect(r, "huge", "SceneError", "huge.hair", "claims 4294967295 points", "24 bytes")
+    expect(r, "strands", "SceneError", "strands.hair", "4294967295 strands for 2 points")

@@ -60,6 +60,15 @@ def parse_hair(data: bytes, path: str) -> tuple[np.ndarray, np.ndarray, np.ndarr
         pos += size
         return a
 
+    # The header's counts against the file's size, before anything is
+    # allocated from them: the points array (12 bytes a point) must be in
+    # the file, and every strand has at least 2 points.
+    if flags & POINTS and 12 * n_points > len(data) - pos:
+        raise ValueError(f"{path}: the header claims {n_points} points ({12 * n_points} bytes), "
+                         f"but the file holds {len(data) - pos} bytes after its header")
+    if n_strands > n_points // 2:
+        raise ValueError(f"{path}: the header claims {n_strands} strands for {n_points} points "
+                         "(a strand needs at least 2)")
     if flags & SEGMENTS:
         segments = take("<u2", n_strands, "segments").astype(np.int64)
     else:
