@@ -92,6 +92,7 @@ def test_02_default_segments_and_thickness(tmp_path):
     ("magic", "not a .hair file"),
     ("truncated", "points array is truncated"),
     ("count", "the header says"),
+    ("claims", "the header claims 10000 points"),
     ("nan", "is not finite"),
 ])
 def test_03_bad_files_name_the_field_and_problem(tmp_path, damage, match):
@@ -99,7 +100,8 @@ def test_03_bad_files_name_the_field_and_problem(tmp_path, damage, match):
     ss = strands(rng, n=5)
     if damage == "nan":
         ss[2][1, 0] = np.nan
-    write_hair(tmp_path / "c.hair", ss, header_points=10_000 if damage == "count" else None)
+    header_points = {"count": sum(len(x) for x in ss) - 1, "claims": 10_000}.get(damage)
+    write_hair(tmp_path / "c.hair", ss, header_points=header_points)
     raw = (tmp_path / "c.hair").read_bytes()
     if damage == "magic":
         raw = b"HAIX" + raw[4:]
