@@ -335,8 +335,24 @@ def _flip(img: np.ndarray, ref: np.ndarray) -> tuple[float, str]:
     return float("nan") if f is None else f, why and f"FLIP failed: {why}"
 
 
+def _read_image(path: str) -> np.ndarray:
+    """An image for `compare`: an EXR as it is (linear), a PNG decoded from
+    sRGB to linear (its alpha dropped); other names are an error."""
+    from . import _native
+    from .render import read_exr
+
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".exr":
+        return read_exr(path)
+    if ext == ".png":
+        w, h, data = _native.read_png(path, None)
+        v = data.reshape(h, w, 4)[..., :3].astype(np.float64)
+        return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    raise ValueError(f"{escaped(path)}: expected an .exr or .png image")
+
+
 def cmd_compare(args: argparse.Namespace) -> int:
-    from .render import read_exr, rel_mse, side_by_side, write_png
+    from .render import rel_mse, side_by_side, write_png
 
     if args.png and os.path.splitext(args.png)[1].lower() != ".png":
         print(f"error: --png: {escaped(args.png)}: the side-by-side picture is a PNG; name it NAME.png", file=sys.stderr)
@@ -344,7 +360,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     if not args.no_flip:
         _extras.check(["flip_evaluator"], "hairshade compare (FLIP; --no-flip skips it)")
-    a, b = read_exr(args.image), read_exr(args.reference)
+    a, b = _read_image(args.image), _read_image(args.reference)
     if a.shape != b.shape:
         print(f"error: {args.image} is {a.shape[1]}x{a.shape[0]}, {args.reference} is {b.shape[1]}x{b.shape[0]}", file=sys.stderr)
         return 2
@@ -429,9 +445,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--shading", choices=("pixel", "vertex"), help="strands shaded per fragment or per vertex")
     r.add_argument("--lod", type=_lod, help="fraction of the strands drawn, in (0, 1], or 'auto'")
     r.set_defaults(func=cmd_render)
-    c = sub.add_parser("compare", help="relMSE and FLIP of IMAGE against REFERENCE (EXR files)")
-    c.add_argument("image", help="the image to measure (EXR)")
-    c.add_argument("reference", help="the reference it is compared with (EXR, same size)")
+    c = sub.add_parser("compare", help="relMSE and FLIP of IMAGE against REFERENCE (EXR or PNG files)")
+    c.add_argument("image", help="the image to measure (EXR, linear; or PNG, decoded from sRGB to linear)")
+    c.add_argument("reference", help="the reference it is compared with (EXR or PNG, same size)")
     c.add_argument("--png", help="write a side-by-side PNG [image | reference | error]")
     c.add_argument("--exposure", type=_exposure, default=0.0,
                    help="exposure of the --png picture in stops, in [-100, 100] (default 0)")
