@@ -24,6 +24,7 @@ import sys
 import numpy as np
 
 import hairshade as hs
+from hairshade.render import srgb_to_linear
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from dense_compare import DENSE, SINGLE_SPP, direct_halves, render_best  # noqa: E402
@@ -129,7 +130,7 @@ def main() -> None:
         scale = 1.0 / np.percentile(ref, 99.5)
         heat = np.clip(err / np.percentile(err, 99.9), 0, 1)[..., None].repeat(3, axis=2)
         # the heat map is a display value: decoded from sRGB so that write_png's encoding gives it back
-        heat = np.where(heat <= 0.04045, heat / 12.92, ((heat + 0.055) / 1.055) ** 2.4)
+        heat = srgb_to_linear(heat)
         strip = np.concatenate([ref * scale, ours * scale, heat], axis=1)
         hs.write_png(str(out / f"{args.scene}_error.png"), strip.astype(np.float32))
         (out / f"{args.scene}_error.md").write_text("\n".join(lines) + "\n")

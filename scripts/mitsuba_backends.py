@@ -51,6 +51,22 @@ def fibers(n: int) -> hs.Scene:
         "hair": {"strands": strands, "material": BLOND}, "render": {}})
 
 
+def _view(scene: hs.Scene) -> tuple:
+    """(camera position, forward, right, up, tan of half the fov, unit
+    direction to the light, its irradiance) of a fiber scene."""
+    cam = scene.camera
+    o = np.asarray(cam["position"], float)
+    fwd = np.asarray(cam["target"], float) - o
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    light = np.asarray(scene.lights[0]["vector"], float)
+    light /= np.linalg.norm(light)
+    return (o, fwd, right, up, np.tan(np.radians(cam["fov"]) / 2), light,
+            np.asarray(scene.lights[0]["intensity"], float))
+
+
 def exact_one_fiber(samples: int = 16) -> np.ndarray:
     """Mean RGB of the one-fiber scene computed exactly: per pixel,
     samples x samples stratified rays (the box filter), each intersected
@@ -60,17 +76,8 @@ def exact_one_fiber(samples: int = 16) -> np.ndarray:
     ``hair``) in the frame local y = tangent, z = normal, times the light's
     irradiance. One bounce is all a single convex fiber has."""
     scene = fibers(1)
-    cam, (w, h), r = scene.camera, (scene.camera["width"], scene.camera["height"]), 0.01
-    o = np.asarray(cam["position"], float)
-    fwd = np.asarray(cam["target"], float) - o
-    fwd /= np.linalg.norm(fwd)
-    right = np.cross(fwd, [0.0, 1.0, 0.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
-    th = np.tan(np.radians(cam["fov"]) / 2)
-    light = np.asarray(scene.lights[0]["vector"], float)
-    light /= np.linalg.norm(light)
-    irradiance = np.asarray(scene.lights[0]["intensity"], float)
+    (w, h), r = (scene.camera["width"], scene.camera["height"]), 0.01
+    o, fwd, right, up, th, light, irradiance = _view(scene)
     u = (np.arange(samples) + 0.5) / samples
     tangent = np.array([1.0, 0.0, 0.0])
     total = np.zeros(3)
@@ -111,19 +118,10 @@ def exact_two_fibers(samples: int = 16, directions: int = 32, seed: int = 1) -> 
     its own fiber (the fiber is a surface event, as in Mitsuba: one fiber's
     depth 2 and depth 64 agree)."""
     scene = fibers(2)
-    c, cam, r = scene.hair, scene.camera, 0.01
-    w, h = cam["width"], cam["height"]
+    c, r = scene.hair, 0.01
+    w, h = scene.camera["width"], scene.camera["height"]
     centers = np.array([0.0, 0.025])
-    o = np.asarray(cam["position"], float)
-    fwd = np.asarray(cam["target"], float) - o
-    fwd /= np.linalg.norm(fwd)
-    right = np.cross(fwd, [0.0, 1.0, 0.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
-    th = np.tan(np.radians(cam["fov"]) / 2)
-    light = np.asarray(scene.lights[0]["vector"], float)
-    light /= np.linalg.norm(light)
-    irradiance = np.asarray(scene.lights[0]["intensity"], float)
+    o, fwd, right, up, th, light, irradiance = _view(scene)
     tangent = np.array([1.0, 0.0, 0.0])
     rng = np.random.default_rng(seed)
 

@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-import os
 import pathlib
 import sys
 import tempfile
@@ -59,9 +58,9 @@ def heads(tmp: str, demo_truth: pathlib.Path) -> list[tuple[str, hs.Scene, np.nd
             scene.render = {}
             out.append((n, scene, hs.read_exr(HELD / f"{n}.exr")[..., :3]))
     if demo_truth.exists():
-        scene = hs.Scene.load(ROOT / "python" / "hairshade" / "examples" / "strand_head.json")
-        scene.render = {k: v for k, v in scene.render.items() if k not in (*options.GROUPS, *options.PRESET_SETTINGS)}
-        scene.camera["width"], scene.camera["height"] = 640, 360
+        from hairshade.demo import SCENE, preset_scene as reduced
+
+        scene = reduced(SCENE, 640, 360)
         out.append(("demo_head_640", scene, hs.read_exr(demo_truth)[..., :3]))
     return out
 
@@ -81,27 +80,18 @@ def preset_rows(scene: hs.Scene, truth: np.ndarray) -> dict[str, tuple[float, fl
 
 
 class Mitsuba:
-    """One head's Mitsuba scene, loaded once; timed renders."""
+    """One head's Mitsuba scene, loaded once (hairshade.mitsuba.LoadedScene);
+    timed renders after a warm-up that compiles the kernels."""
 
-    def __init__(self, scene: hs.Scene, variant: str, tmp: str):
-        import mitsuba as mi
+    def __init__(self, scene: hs.Scene, variant: str):
+        from hairshade.mitsuba import LoadedScene
 
-        from hairshade import mitsuba as hm
-
-        mi.set_variant(variant)
-        self.mi = mi
-        t = time.perf_counter()
-        d = hm.scene_dict(scene, os.path.join(tmp, "strands.txt"), 1, "path", 64)
-        self.scene = mi.load_dict(d)
-        self.load_s = time.perf_counter() - t
-        self.seed = 1
+        self.loaded = LoadedScene(scene, variant, first_seed=2)
+        self.load_s = self.loaded.load_s
         self.render(1)  # warm-up: compiles the kernels
 
     def render(self, spp: int) -> tuple[np.ndarray, float]:
-        self.seed += 1
-        t = time.perf_counter()
-        img = np.array(self.mi.render(self.scene, spp=spp, seed=self.seed))
-        return img[..., :3], time.perf_counter() - t
+        return self.loaded.render(spp)
 
     def measure(self, spp: int, truth: np.ndarray) -> tuple[float, float]:
         """(mean relMSE of two renders, the faster one's time)."""
@@ -141,7 +131,7 @@ def main() -> int:
             todo = [h for h in todo if h[0] in a.heads.split(",")]
         for name, scene, truth in todo:
             presets = preset_rows(scene, truth)
-            m = Mitsuba(scene, variant, tmp)
+            m = Mitsuba(scene, variant)
             ladder, spp = [], 1
             floor = 0.5 * min(e for e, _ in presets.values())
             while spp <= a.max_spp:

@@ -44,9 +44,9 @@ def cpu() -> str:
 
 def preset_scene(name: str) -> hs.Scene:
     """The head with its render settings reduced to what no preset sets."""
-    scene = hs.Scene.load(DENSE / f"{name}.json")
-    scene.render = {k: v for k, v in scene.render.items() if k not in (*options.GROUPS, *options.PRESET_SETTINGS)}
-    return scene
+    from hairshade.demo import preset_scene as reduced
+
+    return reduced(DENSE / f"{name}.json")
 
 
 def measure(heads: tuple[str, ...], repeats: int) -> list[dict[str, object]]:

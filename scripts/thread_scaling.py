@@ -33,12 +33,10 @@ CONFIGS = (("fast", {"quality": "fast"}), ("balanced", {"quality": "balanced"}),
 
 def child(repeats: int, width: int, height: int) -> None:
     import hairshade as hs
-    from hairshade import options
+    from hairshade.demo import preset_scene
 
     for label, settings in CONFIGS:
-        scene = hs.Scene.load(SCENE)
-        scene.render = {k: v for k, v in scene.render.items() if k not in (*options.GROUPS, *options.PRESET_SETTINGS)}
-        scene.camera["width"], scene.camera["height"] = width, height
+        scene = preset_scene(SCENE, width, height)
         t = time.perf_counter()
         img = hs.render(scene, progress=False, **settings)
         first = time.perf_counter() - t

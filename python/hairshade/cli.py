@@ -339,15 +339,14 @@ def _read_image(path: str) -> np.ndarray:
     """An image for `compare`: an EXR as it is (linear), a PNG decoded from
     sRGB to linear (its alpha dropped); other names are an error."""
     from . import _native
-    from .render import read_exr
+    from .render import read_exr, srgb_to_linear
 
     ext = os.path.splitext(path)[1].lower()
     if ext == ".exr":
         return read_exr(path)
     if ext == ".png":
         w, h, data = _native.read_png(path, None)
-        v = data.reshape(h, w, 4)[..., :3].astype(np.float64)
-        return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4).astype(np.float32)
+        return srgb_to_linear(data.reshape(h, w, 4)[..., :3]).astype(np.float32)
     raise ValueError(f"{escaped(path)}: expected an .exr or .png image")
 
 

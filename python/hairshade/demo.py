@@ -72,12 +72,15 @@ def cpu_name() -> str:
     return f"{name}, {os.cpu_count()} logical cores, {_native.simd_level()}"
 
 
-def preset_scene(path: str, width: int, height: int) -> Scene:
-    """The scene with its render settings reduced to what no preset sets."""
+def preset_scene(path: str | os.PathLike, width: int | None = None, height: int | None = None) -> Scene:
+    """The scene with its render settings reduced to what no preset sets
+    (so that ``quality`` decides them), at ``width`` x ``height`` when
+    given."""
     scene = Scene.load(path)
     drop = (*options.GROUPS, *options.PRESET_SETTINGS, "quality")
     scene.render = {k: v for k, v in scene.render.items() if k not in drop}
-    scene.camera["width"], scene.camera["height"] = width, height
+    if width is not None and height is not None:
+        scene.camera["width"], scene.camera["height"] = width, height
     return scene
 
 
@@ -105,29 +108,6 @@ def equal_spp(spp: int, rel: float, target: float, floor: float) -> int:
     if not rel > target > floor:
         raise ValueError(f"target: expected between floor {floor:g} and the render's relMSE {rel:g}, got {target:g}")
     return max(1, math.ceil(spp * (rel - floor) / (target - floor)))
-
-
-class _Mitsuba:
-    """The scene loaded into Mitsuba once; renders timed through drjit."""
-
-    def __init__(self, scene: Scene, folder: str):
-        from . import mitsuba as hm
-
-        import mitsuba as mi
-
-        self.variant = hm.default_variant()
-        mi.set_variant(self.variant)
-        self.mi = mi
-        t = time.perf_counter()
-        self.scene = mi.load_dict(hm.scene_dict(scene, os.path.join(folder, "demo_strands.txt"), 1, "path", 64))
-        self.load_s = time.perf_counter() - t
-        self.seed = 0
-
-    def render(self, spp: int) -> tuple[np.ndarray, float]:
-        self.seed += 1
-        t = time.perf_counter()
-        img = np.array(self.mi.render(self.scene, spp=spp, seed=self.seed), dtype=np.float32)[..., :3]
-        return img, time.perf_counter() - t
 
 
 def _picture(path: str, images: list[np.ndarray], labels: list[str], exposure: float | str) -> None:
@@ -164,7 +144,9 @@ def run(scene_path: str = SCENE, out: str = "out", width: int = 640, height: int
     shipped = os.path.abspath(scene_path) == os.path.abspath(SCENE) and (width, height) == (640, 360)
     print(f"demo: {os.path.relpath(scene_path)}, {scene.strand_count} strands, {width}x{height}; {cpu_name()}, "
           f"{_native.num_threads()} threads")
-    mitsuba = _Mitsuba(scene, out)
+    from .mitsuba import LoadedScene
+
+    mitsuba = LoadedScene(scene)
     result: dict = {}
     if shipped:
         truth, meta = demo_truth()

@@ -192,6 +192,13 @@ def tonemap(image: npt.ArrayLike, exposure: float | str = 0.0) -> npt.NDArray[np
     return np.frombuffer(b, dtype=np.uint8).reshape(a.shape)
 
 
+def srgb_to_linear(v: npt.ArrayLike) -> np.ndarray:
+    """Display values in [0, 1] (sRGB-encoded, as a PNG holds them) to
+    linear ones: the inverse of the encoding :func:`tonemap` applies."""
+    v = np.asarray(v, dtype=np.float64)
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
 class Preview:
     """A linear image that a notebook shows as an sRGB PNG
     (``_repr_png_``); :func:`show` makes one."""

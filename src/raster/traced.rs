@@ -536,19 +536,21 @@ mod tests {
         // on segment 10's surface (x = 0.525, y = r), into the fiber, 0.5 degrees off its axis
         let o = Vec3::new(0.525, r, 0.0);
         let d = Vec3::new(1.0, -0.00873, 0.0).normalize();
+        // a segment across the x axis at `x`, from -half to half in y
+        let across = |x: f32, half: f32, strand: u32| WorldSegment {
+            a: Vec3::new(x, -half, 0.0),
+            b: Vec3::new(x, half, 0.0),
+            ra: r,
+            rb: r,
+            strand,
+            vertex: 0,
+        };
         let grid = SegmentGrid::new(&segs).unwrap();
         assert!(
             !grid.occluded(o, d, f32::INFINITY, &own),
             "own strand ahead, inside the tube"
         );
-        segs.push(WorldSegment {
-            a: Vec3::new(1.5, -0.5, 0.0),
-            b: Vec3::new(1.5, 0.5, 0.0),
-            ra: r,
-            rb: r,
-            strand: 1,
-            vertex: 0,
-        });
+        segs.push(across(1.5, 0.5, 1));
         let crossed = SegmentGrid::new(&segs).unwrap();
         assert!(
             crossed.occluded(o, d, f32::INFINITY, &own),
@@ -557,14 +559,7 @@ mod tests {
         // the own strand turning back across the ray beyond where the ray
         // leaves the cylinder around its own segment (t = 2.29, x = 2.81)
         segs.pop();
-        segs.push(WorldSegment {
-            a: Vec3::new(3.0, -0.3, 0.0),
-            b: Vec3::new(3.0, 0.3, 0.0),
-            ra: r,
-            rb: r,
-            strand: 0,
-            vertex: 0,
-        });
+        segs.push(across(3.0, 0.3, 0));
         let curl = SegmentGrid::new(&segs).unwrap();
         assert!(
             curl.occluded(o, d, f32::INFINITY, &own),

@@ -73,9 +73,10 @@ def default_variant() -> str:
 # above have run (importing any of them runs this file first).
 from .bsdf import MitsubaHair, hair_dict  # noqa: E402
 from .plugins import register_plugins  # noqa: E402
-from .scene import render, scene_dict  # noqa: E402
+from .scene import LoadedScene, render, scene_dict  # noqa: E402
 
 __all__ = [
+    "LoadedScene",
     "MitsubaHair",
     "default_variant",
     "find_libllvm",

@@ -148,6 +148,30 @@ def _card_meshes(scene: "Scene", folder: str, hair_bsdf: str, hair_params: dict[
     return out
 
 
+class LoadedScene:
+    """A hairshade scene loaded into Mitsuba once (``path``, ``max_depth``),
+    rendered as often as asked: :meth:`render` times ``mi.render`` and the
+    read-back of the image together, each call with the next seed from
+    ``first_seed`` on (the way to measure Mitsuba at its best: no reload,
+    no bridge in the timed part). ``load_s`` is the build and load time."""
+
+    def __init__(self, scene: "Scene", variant: str | None = None, max_depth: int = 64, first_seed: int = 1):
+        self.variant = variant or default_variant()
+        mi.set_variant(self.variant)
+        t = time.perf_counter()
+        with tempfile.TemporaryDirectory() as tmp:
+            self.scene = mi.load_dict(scene_dict(scene, os.path.join(tmp, "strands.txt"), 1, "path", max_depth))
+        self.load_s = time.perf_counter() - t
+        self.seed = first_seed - 1
+
+    def render(self, spp: int) -> tuple[np.ndarray, float]:
+        """(H, W, 3) float32 image at ``spp``, and the seconds it took."""
+        self.seed += 1
+        t = time.perf_counter()
+        img = np.array(mi.render(self.scene, spp=spp, seed=self.seed), dtype=np.float32)[..., :3]
+        return img, time.perf_counter() - t
+
+
 def _clamped_controls(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray):
     """Each strand's vertices with the first and last repeated twice more."""
     offsets = np.asarray(offsets, dtype=np.int64)
