@@ -56,3 +56,20 @@ def rot_y(w: np.ndarray, psi: np.ndarray | float) -> np.ndarray:
 def offset_h(wi: np.ndarray) -> np.ndarray:
     """h = sin(gamma_i) = -x / |xz| in Mitsuba's hair frame."""
     return -wi[..., 0] / np.hypot(wi[..., 0], wi[..., 2])
+
+
+def pinhole_rays(camera: dict, xs: np.ndarray, ys: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """The eye and the unit directions of a scene camera's rays through
+    image points (xs, ys) in pixels (y down), as the renderer's pinhole
+    (vertical fov, up = +y): the reference the exact tests trace."""
+    eye = np.asarray(camera["position"], float)
+    fwd = np.asarray(camera["target"], float) - eye
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    th = np.tan(np.radians(camera["fov"]) / 2)
+    d = (fwd + right * ((2 * xs / width - 1) * th * width / height)[..., None]
+         + up * ((1 - 2 * ys / height) * th)[..., None])
+    return eye, d / np.linalg.norm(d, axis=-1, keepdims=True)
+

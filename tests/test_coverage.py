@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import hairshade as hs
+from helpers import pinhole_rays
 
 # Camera looking down -z at the plane z = 0 from distance D: a point (x, y, 0)
 # projects to pixel x_px = W/2 + x/PIX, so widths and areas on the plane are
@@ -154,15 +155,8 @@ def test_06_lit_sphere_is_lambertian_under_pcf():
         "render": {"pcf_radius": 1},
     }
     img = hs.render(hs.Scene.from_dict(d))
-    cam = hs.Scene.from_dict(d).camera
-    eye, tgt = np.array(cam["position"], float), np.array(cam["target"], float)
-    fwd = (tgt - eye) / np.linalg.norm(tgt - eye)
-    right = np.cross(fwd, [0, 1, 0]); right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
-    th = math.tan(math.radians(20))
     ys, xs = np.mgrid[0:H, 0:W] + 0.5
-    dirs = (fwd + right * ((2 * xs / W - 1) * th * W / H)[..., None] + up * ((1 - 2 * ys / H) * th)[..., None])
-    dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+    eye, dirs = pinhole_rays(hs.Scene.from_dict(d).camera, xs, ys, W, H)
     b = dirs @ eye
     disc = b * b - (eye @ eye - 0.48 ** 2)
     t = -b - np.sqrt(np.maximum(disc, 0))
@@ -203,14 +197,9 @@ def test_07_traced_fiber_shadows_on_a_surface_are_averaged_over_the_pixel():
         "render": {"transparency": "coverage", "shadow_model": "traced"},
     }
     img = hs.render(hs.Scene.from_dict(d))
-    fwd = (tgt - eye) / np.linalg.norm(tgt - eye)
-    right = np.cross(fwd, [0, 1, 0]); right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
-    th, s = math.tan(math.radians(20)), 8
+    s = 8
     ys, xs = np.mgrid[0:h * s, 0:w * s] + 0.5
-    xs, ys = xs / s, ys / s
-    dirs = fwd + right * ((2 * xs / w - 1) * th * w / h)[..., None] + up * ((1 - 2 * ys / h) * th)[..., None]
-    dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+    eye, dirs = pinhole_rays(hs.Scene.from_dict(d).camera, xs / s, ys / s, w, h)
     b = dirs @ eye
     disc = b * b - (eye @ eye - 0.48 ** 2)
     q = eye + dirs * (-b - np.sqrt(np.maximum(disc, 0)))[..., None]

@@ -10,7 +10,7 @@ mod at_vertices;
 mod near;
 mod vertices;
 mod visibility;
-pub use near::offset_line;
+pub use near::{offset_line, NearLight};
 pub use vertices::shade_vertices;
 
 use super::lighting::Lighting;
@@ -308,8 +308,16 @@ impl<'a> Shader<'a> {
             // per point: direction, irradiance, unscattered fraction (0 where culled)
             for (i, p) in points.iter().enumerate() {
                 let v = Vec3::from_slice(&b.v[3 * i..]);
-                let inc =
-                    self.incident(source, *p, tangents[i], v, fibers[i], Need::All, &mut tally);
+                let inc = self.incident(
+                    source,
+                    *p,
+                    tangents[i],
+                    v,
+                    fibers[i],
+                    Need::All,
+                    true,
+                    &mut tally,
+                );
                 let (l, e, vis) = inc.map_or((Vec3::ZERO, Vec3::ZERO, 0.0), |x| {
                     (x.dir, x.irradiance, x.unscattered)
                 });
@@ -509,7 +517,7 @@ impl<'a> Shader<'a> {
         t: Vec3,
         v: Vec3,
         fiber: Fiber,
-        mut unscattered: Option<&mut Vec<[Vec3; 2]>>,
+        mut unscattered: Option<&mut Vec<NearLight>>,
     ) -> Vec3 {
         let mut out = Vec3::ZERO;
         if self.cancelled() {
@@ -522,8 +530,10 @@ impl<'a> Shader<'a> {
         } else {
             Need::All
         };
+        // (the near field traces the lights' shadows per bin of offsets)
+        let near = unscattered.is_some() && matches!(self.hair, HairShading::ChiangFar(_));
         for source in self.sources(self.split) {
-            let Some(inc) = self.incident(source, p, t, v, fiber, need, &mut tally) else {
+            let Some(inc) = self.incident(source, p, t, v, fiber, need, !near, &mut tally) else {
                 continue;
             };
             out += if self.split {
@@ -531,14 +541,18 @@ impl<'a> Shader<'a> {
             } else {
                 self.fiber_response(v, t, &inc)
             };
-            if let (Some(list), HairShading::ChiangFar(c), Source::Light(_)) =
+            if let (Some(list), HairShading::ChiangFar(c), Source::Light(li)) =
                 (unscattered.as_deref_mut(), &self.hair, source)
             {
                 // the near field shades this part per coverage sample
                 if inc.unscattered > 0.0 {
                     let f = chiang_far(c, t, v, inc.dir);
                     out -= f * inc.irradiance * inc.unscattered;
-                    list.push([inc.dir, inc.irradiance * inc.unscattered]);
+                    list.push(NearLight {
+                        dir: inc.dir,
+                        irradiance: inc.irradiance * inc.unscattered,
+                        visible: self.offset_visibility(li, p, t, v, &fiber),
+                    });
                 }
             }
         }
@@ -576,7 +590,7 @@ impl<'a> Shader<'a> {
                 continue;
             }
             let need = if light { Need::Path } else { Need::All };
-            let Some(inc) = self.incident(source, p, t, v, fiber, need, &mut tally) else {
+            let Some(inc) = self.incident(source, p, t, v, fiber, need, true, &mut tally) else {
                 continue;
             };
             out += if light {

@@ -60,8 +60,9 @@ impl Shader<'_> {
     }
 
     /// What of `source` reaches hair point `p` on `fiber` with tangent `t`,
-    /// seen from `v` (as much as `need` asks); `None` where light culling
-    /// skips the light (counted in `tally`).
+    /// seen from `v` (as much as `need` asks; without a lights' traced
+    /// shadow ray unless `trace`: the near field traces its own);
+    /// `None` where light culling skips the light (counted in `tally`).
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn incident(
@@ -72,6 +73,7 @@ impl Shader<'_> {
         v: Vec3,
         fiber: Fiber,
         need: Need,
+        trace: bool,
         tally: &mut super::CullTally,
     ) -> Option<Incident> {
         let dual = self.dual.is_some();
@@ -86,7 +88,7 @@ impl Shader<'_> {
                 let sm = self.shadows.get(li).unwrap_or(NO_MAP);
                 let unscattered = match need {
                     Need::Path => 0.0,
-                    _ => self.hair_visibility(li, sm, p, t, v, fiber),
+                    _ => self.hair_visibility(li, sm, p, t, v, fiber, trace),
                 };
                 let path = match (dual, &self.lit.counts[li], need) {
                     (true, Some(c), Need::Unscattered) => LightPath {
@@ -129,8 +131,10 @@ impl Shader<'_> {
     /// `fiber` with tangent `t`, seen from `v`: the shadow map's at the
     /// fiber's surface point facing the viewer (not its own strand's
     /// shadow), times e^-n for the fibers crossed on the way when the light
-    /// has a fiber count (read as for unscattered light).
+    /// has a fiber count (read as for unscattered light); and unless
+    /// `trace` is false, 0 where a traced shadow ray from there is blocked.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn hair_visibility(
         &self,
         li: usize,
@@ -139,13 +143,14 @@ impl Shader<'_> {
         t: Vec3,
         v: Vec3,
         fiber: Fiber,
+        trace: bool,
     ) -> f32 {
         let facing = (v - t * t.dot(v)).normalize_or_zero();
         let q = p + facing * fiber.radius;
         let vis = sm
             .as_ref()
             .map_or(1.0, |m| m.visibility_fiber(p, q, &fiber));
-        if vis > 0.0 && self.traced_occluded(li, q, &fiber) {
+        if trace && vis > 0.0 && self.traced_occluded(li, q, &fiber) {
             return 0.0;
         }
         match self.lit.counts.get(li).and_then(Option::as_ref) {

@@ -14,10 +14,10 @@ use super::bin::TILE;
 use super::coverage::{coverage_at, stretch_param, triangle_pixels, RowSpan, Tri2};
 use super::cull::{BehindHair, BehindOpaque};
 use super::oit::Layers;
-use super::samples::{strand_covers, unit, SampleBuffer, SamplePoints};
+use super::samples::{strand_depth, surface_lead, unit, SampleBuffer, SamplePoints};
 use super::scene::{RenderOptions, Scene, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
-use super::shade::offset_line;
+use super::shade::{offset_line, NearLight};
 use super::shade::{Fiber, Shader, ShadowMaps};
 use super::view::View;
 use crate::lighting::sh9_eval;
@@ -251,8 +251,10 @@ impl<'a> Tile<'a> {
         }
     }
 
-    /// A hair fragment at tile pixel `k` over the samples `covers` accepts
-    /// (coverage mode): collected when it is nearest at any of them.
+    /// A hair fragment at tile pixel `k` over the samples `covers` accepts,
+    /// at the depth it gives each (coverage mode; `depth`, the pixel
+    /// centre's, is kept for the fragment): collected when it is nearest at
+    /// any of them.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn sampled_fragment(
@@ -264,14 +266,14 @@ impl<'a> Tile<'a> {
         fiber: Fiber,
         color: Option<Vec3>,
         line: [f32; 4],
-        mut covers: impl FnMut([f32; 2]) -> bool,
+        mut covers: impl FnMut([f32; 2]) -> Option<f32>,
     ) {
         let Some((pts, buf)) = &mut self.samples else {
             return;
         };
         let id = self.pending.k.len() as u32;
         let pix = pts.pixel(k);
-        if buf.cover(k, depth, id, |s| covers(pix[s])) {
+        if buf.cover(k, id, |s| covers(pix[s])) {
             self.fragments += 1;
             self.pending.push(k, depth, 1.0, p, t, fiber);
             // NaN: not shaded yet (a card, or per-fragment shading)
@@ -421,8 +423,9 @@ impl<'a> Tile<'a> {
                         } else {
                             [f32::NAN; 4]
                         };
+                        let lead = surface_lead(fiber.radius, tangent, pw, view.eye, depth);
                         self.sampled_fragment(k, depth, pw, tangent, fiber, color, line, |p| {
-                            strand_covers(s, d, inv_len2, p)
+                            strand_depth(s, d, inv_len2, lead, p)
                         });
                     } else {
                         self.hair_fragment(k, depth, cov, pw, tangent, fiber, color);
@@ -477,7 +480,8 @@ impl<'a> Tile<'a> {
                         no_line,
                         |_| {
                             s += 1;
-                            unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha
+                            (unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha)
+                                .then_some(depth)
                         },
                     );
                 } else {
@@ -506,7 +510,7 @@ struct Pending {
     /// range of `lights` the fragment's samples shade by it.
     line: Vec<[f32; 4]>,
     near: Vec<(u32, u32)>,
-    lights: Vec<[Vec3; 2]>,
+    lights: Vec<NearLight>,
 }
 
 impl Pending {

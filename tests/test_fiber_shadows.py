@@ -1,0 +1,113 @@
+"""Single scattering where fibers touch, against an exact computation: camera
+rays and shadow rays intersected analytically with the fibers' cylinders,
+each hit shaded by ChiangHair.eval at its own offset (the near field, as a
+path tracer's hit is), with the light where the shadow ray leaves every
+other fiber unblocked. A light's visibility changes across a fiber when a neighbour lies within a
+radius or two of it; the near field samples it at offsets across the fiber
+(`shade/near.rs`). One ray per fragment from the fiber's point facing the
+viewer made a backlit wavy head's rim 35 % too dark against Mitsuba
+(single scattering). The depth of a sample on a fiber seen at a grazing
+angle is checked in Rust (`raster::samples` t04)."""
+
+import numpy as np
+import pytest
+
+import hairshade as hs
+from helpers import pinhole_rays
+
+BLOND = {"model": "chiang", "eumelanin": 0.15, "pheomelanin": 0.1, "longitudinal_roughness": 0.3,
+         "azimuthal_roughness": 0.4}
+R = 0.01
+W, H = 160, 90
+
+
+def _scene(fibers, camera, light):
+    strands = [{"points": [list(a), list(b)], "radius": R} for a, b in fibers]
+    return hs.Scene.from_dict({
+        "hairshade_scene": 1,
+        "camera": {**camera, "resolution": [W, H]},
+        "lights": [{"type": "directional", "direction": light, "intensity": [3, 3, 3]}],
+        "hair": {"strands": strands, "material": BLOND}, "render": {}})
+
+
+def _cylinder_hits(o, d, a, b):
+    """Ray parameter of the first hit of rays (o, unit d) on the side of the
+    cylinder of radius R around segment a-b (inf where none), and the hit's
+    unit normal."""
+    u = (b - a) / np.linalg.norm(b - a)
+    w = o - a
+    dp = d - (d @ u)[:, None] * u
+    wp = w - (w @ u)[:, None] * u
+    qa, qb, qc = (dp * dp).sum(-1), 2 * (wp * dp).sum(-1), (wp * wp).sum(-1) - R * R
+    disc = qb * qb - 4 * qa * qc
+    ok = (disc > 0) & (qa > 1e-12)
+    t = np.where(ok, (-qb - np.sqrt(np.where(ok, disc, 0))) / (2 * np.where(ok, qa, 1)), np.inf)
+    s = ((o + t[:, None] * d - a) @ u) if np.any(ok) else np.zeros(len(o))
+    t = np.where(ok & (t > 1e-9) & (s >= 0) & (s <= np.linalg.norm(b - a)), t, np.inf)
+    p = o + np.where(np.isfinite(t), t, 0)[:, None] * d
+    n = (p - a) - ((p - a) @ u)[:, None] * u
+    return t, n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30), u
+
+
+def exact_mean(scene, fibers, samples=12):
+    """Mean RGB of the image computed exactly: per pixel samples x samples
+    stratified rays (the box filter), nearest cylinder hit, shaded by
+    ChiangHair.eval in the frame (t x n, t, n) times the irradiance where
+    the shadow ray misses the other cylinders."""
+    light = np.asarray(scene.lights[0]["vector"], float)
+    light /= np.linalg.norm(light)
+    e = np.asarray(scene.lights[0]["intensity"], float)
+    f = [(np.asarray(a, float), np.asarray(b, float)) for a, b in fibers]
+    uu = (np.arange(samples) + 0.5) / samples
+    total = np.zeros(3)
+    for j in range(H):
+        py, px = np.broadcast_arrays((j + uu)[:, None, None], (np.arange(W)[:, None] + uu[None, :])[None])
+        eye, d = pinhole_rays(scene.camera, px, py, W, H)
+        d = d.reshape(-1, 3)
+        o = np.broadcast_to(eye, d.shape)
+        hits = [_cylinder_hits(o, d, a, b) for a, b in f]
+        ts = np.stack([h[0] for h in hits])
+        k = np.argmin(ts, 0)
+        sel = np.isfinite(ts.min(0))
+        for i, (_, n_i, t_i) in enumerate(hits):
+            m = sel & (k == i)
+            if not m.any():
+                continue
+            p = o[m] + ts[i, m][:, None] * d[m]
+            n = n_i[m]
+            lit = np.ones(m.sum(), bool)
+            for jj, (a, b) in enumerate(f):
+                if jj != i:
+                    lit &= ~np.isfinite(_cylinder_hits(p, np.broadcast_to(light, p.shape), a, b)[0])
+            x = np.cross(t_i, n)
+
+            def local(v):
+                v = np.broadcast_to(v, n.shape)
+                return np.stack([(v * x).sum(-1), v @ t_i, (v * n).sum(-1)], -1)
+
+            total += (scene.hair.eval(local(-d[m]), local(light)) * e * lit[:, None]).sum(0)
+    return total / (W * H * samples * samples)
+
+
+def _render_mean(scene):
+    img = hs.render(scene, W, H, quality="accurate", multiple_scattering="none")
+    return img.reshape(-1, 3).mean(0)
+
+
+def test_01_partial_shadow_across_a_fiber():
+    """Two parallel fibers 2.4 radii apart, the back one above and behind
+    the front one as the camera sees them, the light from behind and above:
+    the back fiber shadows the upper part of the front fiber's cross
+    section. The rendered mean within 2 % of the exact one per channel.
+
+    Tolerance: the near field takes a light's visibility per bin of
+    offsets (64 bins), so the bin that the shadow's edge crosses is lit or
+    dark as a whole; with 16 bins that one bin made the mean 4.3 % too
+    bright, with 64 it is 0.45 % too dark (measured). The visibility of the
+    fiber's point facing the viewer alone (one ray per fragment) made it
+    37 % too dark."""
+    fibers = [((-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)), ((-1.0, 2.2 * R, -1.0 * R), (1.0, 2.2 * R, -1.0 * R))]
+    scene = _scene(fibers, {"position": [0, 0.005, 1.2], "target": [0, 0.005, 0], "fov": 8},
+                   [0.0, 0.8, -1.0])
+    got, want = _render_mean(scene), exact_mean(scene, fibers)
+    assert np.all(np.abs(got / want - 1) < 0.02), (got / want, got, want)
