@@ -190,40 +190,9 @@ impl SegmentGrid {
     /// shadows like any other (a curl turning back).
     pub fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, fiber: &super::shade::Fiber) -> bool {
         let t_own = self.own_tube_exit(o, d, fiber);
-        // Clip the ray to the grid's box.
-        let hi = self.origin
-            + Vec3::new(
-                self.dims[0] as f32,
-                self.dims[1] as f32,
-                self.dims[2] as f32,
-            ) * self.cell;
-        let inv = Vec3::ONE / d;
-        let (t0, t1) = ((self.origin - o) * inv, (hi - o) * inv);
-        let t_enter = t0.min(t1).max_element().max(0.0);
-        let t_exit = t0.max(t1).min_element().min(t_max);
-        if !(t_enter <= t_exit) {
+        let Some((t_enter, c)) = self.enter(o, d, t_max) else {
             return false;
-        }
-        let p = o + d * t_enter;
-        let g = (p - self.origin) / self.cell;
-        let mut c = [0, 1, 2].map(|k| (g[k].max(0.0) as i64).min(self.dims[k] as i64 - 1));
-        let step = [0, 1, 2].map(|k| if d[k] > 0.0 { 1i64 } else { -1 });
-        // Ray parameter of the next cell boundary per axis, and per cell.
-        let mut next = [0.0f32; 3];
-        let mut delta = [0.0f32; 3];
-        for k in 0..3 {
-            let boundary = self.origin[k] + (c[k] + (step[k] > 0) as i64) as f32 * self.cell;
-            next[k] = if d[k] != 0.0 {
-                (boundary - o[k]) * inv[k]
-            } else {
-                f32::INFINITY
-            };
-            delta[k] = if d[k] != 0.0 {
-                self.cell * inv[k].abs()
-            } else {
-                f32::INFINITY
-            };
-        }
+        };
         // Other strands whose tube the ray starts in (fibers that
         // interpenetrate): each is passed as the own strand is, until the
         // ray leaves the cylinder of the capsule that holds the origin (a
@@ -252,21 +221,78 @@ impl SegmentGrid {
                     .iter()
                     .any(|&(st, t_leave)| st == strand && t <= t_leave)
         };
-        let mut t = t_enter;
-        while t <= t_exit {
-            let ci =
-                ((c[2] as usize * self.dims[1]) + c[1] as usize) * self.dims[0] + c[0] as usize;
-            let range = self.start[ci] as usize..self.start[ci + 1] as usize;
-            for &i in &self.items[range] {
+        let mut blocked = false;
+        self.walk(o, d, t_max, |items, _| {
+            for &i in items {
                 let s = &self.segments[i as usize];
                 if s.may_hit(o, d, t_max) && !fiber.is_local(s.strand, s.segment) {
                     if let Some(t) = capsule_hit(o, d, t_max, s) {
                         if !passed(s.strand, t) {
+                            blocked = true;
                             return true;
                         }
                     }
                 }
             }
+            false
+        });
+        blocked
+    }
+
+    /// The grid cell where the ray from `o` along `d` enters the grid's box
+    /// (at `t_enter` ≥ 0), if it does before `t_max`.
+    fn enter(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, [i64; 3])> {
+        let hi = self.origin
+            + Vec3::new(
+                self.dims[0] as f32,
+                self.dims[1] as f32,
+                self.dims[2] as f32,
+            ) * self.cell;
+        let inv = Vec3::ONE / d;
+        let (t0, t1) = ((self.origin - o) * inv, (hi - o) * inv);
+        let t_enter = t0.min(t1).max_element().max(0.0);
+        let t_exit = t0.max(t1).min_element().min(t_max);
+        if !(t_enter <= t_exit) {
+            return None;
+        }
+        let g = (o + d * t_enter - self.origin) / self.cell;
+        Some((
+            t_enter,
+            [0, 1, 2].map(|k| (g[k].max(0.0) as i64).min(self.dims[k] as i64 - 1)),
+        ))
+    }
+
+    /// The items of the cells the ray passes through, in order (a 3D DDA,
+    /// Amanatides & Woo), each with the ray parameter where the ray leaves
+    /// that cell, until `visit` returns true or the ray leaves the grid or
+    /// passes `t_max`.
+    fn walk(&self, o: Vec3, d: Vec3, t_max: f32, mut visit: impl FnMut(&[u32], f32) -> bool) {
+        let Some((t_enter, mut c)) = self.enter(o, d, t_max) else {
+            return;
+        };
+        let inv = Vec3::ONE / d;
+        let step = [0, 1, 2].map(|k| if d[k] > 0.0 { 1i64 } else { -1 });
+        // Ray parameter of the next cell boundary per axis, and per cell.
+        let mut next = [0.0f32; 3];
+        let mut delta = [0.0f32; 3];
+        for k in 0..3 {
+            let boundary = self.origin[k] + (c[k] + (step[k] > 0) as i64) as f32 * self.cell;
+            next[k] = if d[k] != 0.0 {
+                (boundary - o[k]) * inv[k]
+            } else {
+                f32::INFINITY
+            };
+            delta[k] = if d[k] != 0.0 {
+                self.cell * inv[k].abs()
+            } else {
+                f32::INFINITY
+            };
+        }
+        let mut t = t_enter;
+        while t <= t_max {
+            let ci =
+                ((c[2] as usize * self.dims[1]) + c[1] as usize) * self.dims[0] + c[0] as usize;
+            let items = &self.items[self.start[ci] as usize..self.start[ci + 1] as usize];
             let k = if next[0] < next[1] {
                 if next[0] < next[2] {
                     0
@@ -278,6 +304,9 @@ impl SegmentGrid {
             } else {
                 2
             };
+            if visit(items, next[k]) {
+                return;
+            }
             t = next[k];
             next[k] += delta[k];
             c[k] += step[k];
@@ -285,7 +314,6 @@ impl SegmentGrid {
                 break;
             }
         }
-        false
     }
 }
 
