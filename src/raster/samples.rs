@@ -174,17 +174,22 @@ impl SampleBuffer {
 
     /// Fragment `id` over the samples `s` of pixel `k` that it covers,
     /// `covers(s)` giving its depth there, where it lies nearest; whether
-    /// it took any.
+    /// it took any. No depth `covers` gives is below `depth_lo`: samples
+    /// already nearer are skipped without it.
     #[inline]
     pub fn cover(
         &mut self,
         k: usize,
         id: u32,
+        depth_lo: f32,
         mut covers: impl FnMut(usize) -> Option<f32>,
     ) -> bool {
         let base = k * self.n;
         let mut took = false;
         for s in 0..self.n {
+            if !(depth_lo < self.depth[base + s]) {
+                continue;
+            }
             if let Some(depth) = covers(s) {
                 if depth < self.depth[base + s] {
                     self.depth[base + s] = depth;
@@ -285,10 +290,10 @@ mod tests {
     #[test]
     fn t03_nearest_owns() {
         let mut b = SampleBuffer::new(4, &[5.0]);
-        assert!(b.cover(0, 0, |s| (s < 2).then_some(3.0)));
-        assert!(b.cover(0, 1, |s| (s == 1).then_some(2.0)));
-        assert!(!b.cover(0, 2, |_| Some(4.0)) || b.owners(0).any(|o| o == Some(2)));
-        assert!(!b.cover(0, 3, |_| Some(6.0)));
+        assert!(b.cover(0, 0, 3.0, |s| (s < 2).then_some(3.0)));
+        assert!(b.cover(0, 1, 2.0, |s| (s == 1).then_some(2.0)));
+        assert!(!b.cover(0, 2, 4.0, |_| Some(4.0)) || b.owners(0).any(|o| o == Some(2)));
+        assert!(!b.cover(0, 3, 6.0, |_| Some(6.0)));
         let owners: Vec<_> = b.owners(0).collect();
         assert_eq!(owners, vec![Some(0), Some(1), Some(2), Some(2)]);
         let mut c = vec![0u32; 4];

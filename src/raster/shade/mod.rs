@@ -536,25 +536,37 @@ impl<'a> Shader<'a> {
             let Some(inc) = self.incident(source, p, t, v, fiber, need, !near, &mut tally) else {
                 continue;
             };
-            out += if self.split {
-                self.unscattered_response(v, t, &inc)
-            } else {
-                self.fiber_response(v, t, &inc)
-            };
             if let (Some(list), HairShading::ChiangFar(c), Source::Light(li)) =
                 (unscattered.as_deref_mut(), &self.hair, source)
             {
                 // the near field shades this part per coverage sample
                 if inc.unscattered > 0.0 {
-                    let f = chiang_far(c, t, v, inc.dir);
-                    out -= f * inc.irradiance * inc.unscattered;
-                    list.push(NearLight {
-                        dir: inc.dir,
-                        irradiance: inc.irradiance * inc.unscattered,
-                        visible: self.offset_visibility(li, p, t, v, &fiber),
-                    });
+                    if self.dual.is_some() {
+                        // what dual scattering adds to the direct light
+                        out += if self.split {
+                            self.unscattered_response(v, t, &inc)
+                        } else {
+                            self.fiber_response(v, t, &inc)
+                        } - chiang_far(c, t, v, inc.dir) * inc.irradiance * inc.unscattered;
+                    }
+                    let visible = self.offset_visibility(li, p, t, v, &fiber);
+                    if visible != 0 {
+                        list.push(NearLight {
+                            dir: inc.dir,
+                            irradiance: inc.irradiance * inc.unscattered,
+                            visible,
+                        });
+                    }
+                } else if self.dual.is_some() && !self.split {
+                    out += self.fiber_response(v, t, &inc);
                 }
+                continue;
             }
+            out += if self.split {
+                self.unscattered_response(v, t, &inc)
+            } else {
+                self.fiber_response(v, t, &inc)
+            };
         }
         self.flush(tally);
         if !self.split {

@@ -266,6 +266,7 @@ impl<'a> Tile<'a> {
         fiber: Fiber,
         color: Option<Vec3>,
         line: [f32; 4],
+        depth_lo: f32,
         mut covers: impl FnMut([f32; 2]) -> Option<f32>,
     ) {
         let Some((pts, buf)) = &mut self.samples else {
@@ -273,7 +274,7 @@ impl<'a> Tile<'a> {
         };
         let id = self.pending.k.len() as u32;
         let pix = pts.pixel(k);
-        if buf.cover(k, id, |s| covers(pix[s])) {
+        if buf.cover(k, id, depth_lo, |s| covers(pix[s])) {
             self.fragments += 1;
             self.pending.push(k, depth, 1.0, p, t, fiber);
             // NaN: not shaded yet (a card, or per-fragment shading)
@@ -424,7 +425,12 @@ impl<'a> Tile<'a> {
                             [f32::NAN; 4]
                         };
                         let lead = surface_lead(fiber.radius, tangent, pw, view.eye, depth);
-                        self.sampled_fragment(k, depth, pw, tangent, fiber, color, line, |p| {
+                        // no sample of this pixel lies nearer: the centre's
+                        // depth less the change over a pixel and a half
+                        // along the segment, less the lead
+                        let lo =
+                            (depth - 1.5 * (s.zb - s.za).abs() * inv_len2.sqrt()).max(z_min) - lead;
+                        self.sampled_fragment(k, depth, pw, tangent, fiber, color, line, lo, |p| {
                             strand_depth(s, d, inv_len2, lead, p)
                         });
                     } else {
@@ -478,6 +484,7 @@ impl<'a> Tile<'a> {
                         Fiber::NONE,
                         None,
                         no_line,
+                        depth,
                         |_| {
                             s += 1;
                             (unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha)
