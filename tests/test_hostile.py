@@ -761,3 +761,22 @@ def test_20_hair_header_counts_checked_against_the_file_size(tmp_path):
     r = run_cases(cases, timeout=30)
     expect(r, "huge", "SceneError", "huge.hair", "claims 4294967295 points", "24 bytes")
     expect(r, "strands", "SceneError", "strands.hair", "4294967295 strands for 2 points")
+
+
+def test_21_a_stray_strand_far_away_leaves_the_hair_in_view():
+    """One strand 1e5 away behind the hair (z = -1e5) took the near plane
+    (1e-4 of the hair's far side) past the rest of the hair: 1736
+    fragments fell to 0 and the image went black. The far side is the
+    hair's 99th percentile distance: every fragment of the head stays."""
+    from hairshade.generate import generate
+
+    pts, _ = generate({"kind": "head", "strands": 200, "segments": 8, "seed": 1})
+    d = {"hairshade_scene": 1,
+         "camera": {"position": [0, 0, 2.3], "target": [0, 0, 0], "fov": 40, "resolution": [64, 36]},
+         "lights": [{"type": "directional", "direction": [0, 1, 1], "intensity": [1, 1, 1]}],
+         "hair": {"strands": [{"points": np.asarray(p).tolist(), "radius": 0.002} for p in pts]}, "render": {}}
+    _, alone = hs.render(hs.Scene.from_dict(d), return_stats=True)
+    d["hair"]["strands"].append({"points": [[0, 0, -1e5], [0, 0.1, -1e5]], "radius": 0.002})
+    _, stray = hs.render(hs.Scene.from_dict(d), return_stats=True)
+    assert alone["fragments"] > 1000
+    assert stray["fragments"] >= alone["fragments"]

@@ -130,19 +130,28 @@ pub fn scene_bounds(scene: &Scene) -> Bounds {
 /// the far side of the hair (strands and cards) as seen from the camera,
 /// so a large floor or ground sphere does not push the near plane past
 /// nearby hair; without hair, the nearer of the camera's target and the
-/// far side of the scene (`bounds`).
+/// far side of the scene (`bounds`). The far side is the 99th percentile
+/// of the hair's distances, not their largest, so that a stray strand far
+/// away (one at 1e5 took the near plane past the rest of the hair, which
+/// then vanished) leaves it where the hair is.
 pub fn near_reference(scene: &Scene, bounds: Bounds) -> f32 {
     let eye = scene.camera.position;
     let st = &scene.strands;
-    let hair = st
+    let mut hair: Vec<f32> = st
         .points
         .iter()
         .zip(&st.radii)
         .map(|(p, r)| (*p - eye).length() + r)
         .chain(scene.cards.corners.iter().map(|p| (*p - eye).length()))
         .filter(|d| d.is_finite())
-        .fold(None, |m: Option<f32>, d| Some(m.map_or(d, |m| m.max(d))));
-    match hair {
+        .collect();
+    let far = if hair.is_empty() {
+        None
+    } else {
+        let k = (hair.len() - 1) * 99 / 100;
+        Some(*hair.select_nth_unstable_by(k, f32::total_cmp).1)
+    };
+    match far {
         Some(d) if d > 0.0 => d,
         _ => {
             let far = (bounds.center - eye).length() + bounds.radius;
