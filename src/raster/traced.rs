@@ -19,7 +19,14 @@ pub struct SegmentGrid {
     /// Per world segment, its capsule's index in `segments` (u32::MAX: a
     /// segment left out as not finite).
     capsule_of: Vec<u32>,
+    /// Per block of `BLOCK`³ cells, whether all of them are empty (a ray
+    /// crosses such a block in one step).
+    empty_block: Vec<bool>,
+    block_dims: [usize; 3],
 }
+
+/// Cells a side of the blocks the walk skips when empty.
+const BLOCK: usize = 4;
 
 #[derive(Debug, Clone, Copy)]
 struct Capsule {
@@ -150,6 +157,20 @@ impl SegmentGrid {
             start[c + 1] += start[c];
         }
         let items: Vec<u32> = lists.into_iter().map(|(_, i)| i).collect();
+        let block_dims = dims.map(|n| n.div_ceil(BLOCK));
+        let mut empty_block = vec![true; block_dims[0] * block_dims[1] * block_dims[2]];
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    let c = (z * dims[1] + y) * dims[0] + x;
+                    if start[c + 1] > start[c] {
+                        let b =
+                            ((z / BLOCK) * block_dims[1] + y / BLOCK) * block_dims[0] + x / BLOCK;
+                        empty_block[b] = false;
+                    }
+                }
+            }
+        }
         Some(Self {
             origin: lo,
             cell,
@@ -158,6 +179,8 @@ impl SegmentGrid {
             items,
             segments: caps,
             capsule_of,
+            empty_block,
+            block_dims,
         })
     }
 
@@ -177,6 +200,7 @@ impl SegmentGrid {
     pub fn bytes(&self) -> usize {
         (self.start.len() + self.items.len() + self.capsule_of.len()) * 4
             + self.segments.len() * std::mem::size_of::<Capsule>()
+            + self.empty_block.len()
     }
 
     /// Whether the ray from `o` along unit `d`, up to `t_max`, meets a
@@ -290,6 +314,54 @@ impl SegmentGrid {
         }
         let mut t = t_enter;
         while t <= t_max {
+            let b = [0, 1, 2].map(|k| c[k] as usize / BLOCK);
+            if self.empty_block[(b[2] * self.block_dims[1] + b[1]) * self.block_dims[0] + b[0]] {
+                // an empty block: on to the cell where the ray leaves it
+                let mut a = 0;
+                let mut t_out = f32::INFINITY;
+                for k in 0..3 {
+                    if d[k] != 0.0 {
+                        let face = if step[k] > 0 {
+                            (b[k] + 1) * BLOCK
+                        } else {
+                            b[k] * BLOCK
+                        };
+                        let tk = (self.origin[k] + face as f32 * self.cell - o[k]) * inv[k];
+                        if tk < t_out {
+                            (t_out, a) = (tk, k);
+                        }
+                    }
+                }
+                if !(t_out <= t_max) {
+                    return;
+                }
+                let g = (o + d * t_out - self.origin) / self.cell;
+                for k in 0..3 {
+                    c[k] = if k == a {
+                        if step[k] > 0 {
+                            ((b[k] + 1) * BLOCK) as i64
+                        } else {
+                            (b[k] * BLOCK) as i64 - 1
+                        }
+                    } else {
+                        let lo = (b[k] * BLOCK) as i64;
+                        let hi = (((b[k] + 1) * BLOCK).min(self.dims[k]) - 1) as i64;
+                        (g[k].floor() as i64).clamp(lo, hi)
+                    };
+                    if c[k] < 0 || c[k] >= self.dims[k] as i64 {
+                        return;
+                    }
+                    let boundary =
+                        self.origin[k] + (c[k] + (step[k] > 0) as i64) as f32 * self.cell;
+                    next[k] = if d[k] != 0.0 {
+                        (boundary - o[k]) * inv[k]
+                    } else {
+                        f32::INFINITY
+                    };
+                }
+                t = t_out;
+                continue;
+            }
             let ci =
                 ((c[2] as usize * self.dims[1]) + c[1] as usize) * self.dims[0] + c[0] as usize;
             let items = &self.items[self.start[ci] as usize..self.start[ci + 1] as usize];
