@@ -780,3 +780,21 @@ def test_21_a_stray_strand_far_away_leaves_the_hair_in_view():
     _, stray = hs.render(hs.Scene.from_dict(d), return_stats=True)
     assert alone["fragments"] > 1000
     assert stray["fragments"] >= alone["fragments"]
+
+
+def test_22_overflowing_pixels_are_reported():
+    """A background of 3e38 under coverage transparency overflows float32
+    in 2303 of 2304 pixels; they become 0, are counted in the stats, and a
+    RuntimeWarning says so (before, only the stats did, and the command
+    line said nothing)."""
+    from hairshade.generate import generate
+
+    pts, _ = generate({"kind": "head", "strands": 100, "segments": 6, "seed": 1})
+    d = {"hairshade_scene": 1,
+         "camera": {"position": [0, 0, 2.3], "target": [0, 0, 0], "fov": 40, "resolution": [48, 48]},
+         "lights": [{"type": "directional", "direction": [0, 1, 1], "intensity": [1, 1, 1]}],
+         "hair": {"strands": [{"points": np.asarray(p).tolist(), "radius": 0.002} for p in pts]},
+         "render": {"background": [3e38] * 3, "transparency": "coverage"}}
+    with pytest.warns(RuntimeWarning, match=r"2303 of 2304 pixels overflowed"):
+        img, st = hs.render(hs.Scene.from_dict(d), return_stats=True)
+    assert st["non_finite_pixels"] == 2303 and np.all(np.isfinite(img))

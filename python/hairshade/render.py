@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numbers
 import os
+import warnings
 from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
@@ -78,8 +79,8 @@ def render(
     ``progress``: a progress bar (tqdm's when installed; default: where it
     can be seen, a terminal or a notebook) over the tiles, and over the
     solve of multiple scattering through the volume when there is one (100
-    steps). Ctrl-C stops the render (KeyboardInterrupt). Non-finite pixels (an overflow) are counted in the
-    stats as ``non_finite_pixels``."""
+    steps). Ctrl-C stops the render (KeyboardInterrupt). Non-finite pixels (an overflow) are set to 0,
+    counted in the stats as ``non_finite_pixels``, and reported by a ``RuntimeWarning``."""
     return _render(scene, width, height, progress, return_stats, scene.options(**settings))
 
 
@@ -99,7 +100,12 @@ def _render(scene: Scene, width: int | None, height: int | None, progress: bool 
     with Bar(0, "render", unit="step", enabled=progress) as bar:
         flat, stats = _native.render(_native_scene(scene, cam), options, bar.update_to if progress is not False else None)
     img = flat.reshape(cam["height"], cam["width"], 3)
-    return (img, dict(stats)) if return_stats else img
+    stats = dict(stats)
+    if stats.get("non_finite_pixels", 0) > 0:
+        warnings.warn(f"render: {stats['non_finite_pixels']} of {img.shape[0] * img.shape[1]} pixels overflowed to a "
+                      "non-finite value and were set to 0 (a radiance, background or light too large for float32)",
+                      RuntimeWarning, stacklevel=3)
+    return (img, stats) if return_stats else img
 
 
 def _native_scene(scene: Scene, cam: dict[str, Any]) -> dict[str, Any]:
