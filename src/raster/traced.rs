@@ -214,7 +214,7 @@ impl SegmentGrid {
     /// shadows like any other (a curl turning back).
     pub fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, fiber: &super::shade::Fiber) -> bool {
         let t_own = self.own_tube_exit(o, d, fiber);
-        let Some((t_enter, c)) = self.enter(o, d, t_max) else {
+        let Some(entry @ (t_enter, c)) = self.enter(o, d, t_max) else {
             return false;
         };
         // Other strands whose tube the ray starts in (fibers that
@@ -224,8 +224,7 @@ impl SegmentGrid {
         let mut inside = [(u32::MAX, 0.0f32); 8];
         let mut n_inside = 0;
         if t_enter == 0.0 {
-            let ci =
-                ((c[2] as usize * self.dims[1]) + c[1] as usize) * self.dims[0] + c[0] as usize;
+            let ci = self.cell_index(c);
             for &i in &self.items[self.start[ci] as usize..self.start[ci + 1] as usize] {
                 let s = &self.segments[i as usize];
                 if s.strand != fiber.strand && contains(o, s) {
@@ -245,22 +244,14 @@ impl SegmentGrid {
                     .iter()
                     .any(|&(st, t_leave)| st == strand && t <= t_leave)
         };
-        let mut blocked = false;
-        self.walk(o, d, t_max, |items, _| {
-            for &i in items {
+        self.walk(o, d, t_max, entry, |items| {
+            items.iter().any(|&i| {
                 let s = &self.segments[i as usize];
-                if s.may_hit(o, d, t_max) && !fiber.is_local(s.strand, s.segment) {
-                    if let Some(t) = capsule_hit(o, d, t_max, s) {
-                        if !passed(s.strand, t) {
-                            blocked = true;
-                            return true;
-                        }
-                    }
-                }
-            }
-            false
-        });
-        blocked
+                s.may_hit(o, d, t_max)
+                    && !fiber.is_local(s.strand, s.segment)
+                    && capsule_hit(o, d, t_max, s).is_some_and(|t| !passed(s.strand, t))
+            })
+        })
     }
 
     /// The grid cell where the ray from `o` along `d` enters the grid's box
@@ -286,32 +277,38 @@ impl SegmentGrid {
         ))
     }
 
-    /// The items of the cells the ray passes through, in order (a 3D DDA,
-    /// Amanatides & Woo), each with the ray parameter where the ray leaves
-    /// that cell, until `visit` returns true or the ray leaves the grid or
-    /// passes `t_max`.
-    fn walk(&self, o: Vec3, d: Vec3, t_max: f32, mut visit: impl FnMut(&[u32], f32) -> bool) {
-        let Some((t_enter, mut c)) = self.enter(o, d, t_max) else {
-            return;
-        };
+    /// The items of the cells the ray passes through from where it enters
+    /// the grid (`entry`, from [`Self::enter`]), in order (a 3D DDA,
+    /// Amanatides & Woo; empty blocks crossed in one step), until `visit`
+    /// returns true (then true) or the ray leaves the grid or passes
+    /// `t_max`.
+    fn walk(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        (t_enter, mut c): (f32, [i64; 3]),
+        mut visit: impl FnMut(&[u32]) -> bool,
+    ) -> bool {
         let inv = Vec3::ONE / d;
         let step = [0, 1, 2].map(|k| if d[k] > 0.0 { 1i64 } else { -1 });
-        // Ray parameter of the next cell boundary per axis, and per cell.
-        let mut next = [0.0f32; 3];
-        let mut delta = [0.0f32; 3];
-        for k in 0..3 {
-            let boundary = self.origin[k] + (c[k] + (step[k] > 0) as i64) as f32 * self.cell;
-            next[k] = if d[k] != 0.0 {
-                (boundary - o[k]) * inv[k]
+        // Ray parameter of the next cell boundary along axis k from cell
+        // coordinate `ck`, and of a cell's width.
+        let boundary = |k: usize, ck: i64| {
+            if d[k] != 0.0 {
+                (self.origin[k] + (ck + (step[k] > 0) as i64) as f32 * self.cell - o[k]) * inv[k]
             } else {
                 f32::INFINITY
-            };
-            delta[k] = if d[k] != 0.0 {
+            }
+        };
+        let mut next = [0, 1, 2].map(|k| boundary(k, c[k]));
+        let delta = [0, 1, 2].map(|k| {
+            if d[k] != 0.0 {
                 self.cell * inv[k].abs()
             } else {
                 f32::INFINITY
-            };
-        }
+            }
+        });
         let mut t = t_enter;
         while t <= t_max {
             let b = [0, 1, 2].map(|k| c[k] as usize / BLOCK);
@@ -320,20 +317,19 @@ impl SegmentGrid {
                 let mut a = 0;
                 let mut t_out = f32::INFINITY;
                 for k in 0..3 {
-                    if d[k] != 0.0 {
-                        let face = if step[k] > 0 {
-                            (b[k] + 1) * BLOCK
-                        } else {
-                            b[k] * BLOCK
-                        };
-                        let tk = (self.origin[k] + face as f32 * self.cell - o[k]) * inv[k];
-                        if tk < t_out {
-                            (t_out, a) = (tk, k);
-                        }
+                    // (the block's last cell along k, as a cell's far face)
+                    let last = if step[k] > 0 {
+                        ((b[k] + 1) * BLOCK) as i64 - 1
+                    } else {
+                        (b[k] * BLOCK) as i64
+                    };
+                    let tk = boundary(k, last);
+                    if tk < t_out {
+                        (t_out, a) = (tk, k);
                     }
                 }
                 if !(t_out <= t_max) {
-                    return;
+                    return false;
                 }
                 let g = (o + d * t_out - self.origin) / self.cell;
                 for k in 0..3 {
@@ -349,22 +345,17 @@ impl SegmentGrid {
                         (g[k].floor() as i64).clamp(lo, hi)
                     };
                     if c[k] < 0 || c[k] >= self.dims[k] as i64 {
-                        return;
+                        return false;
                     }
-                    let boundary =
-                        self.origin[k] + (c[k] + (step[k] > 0) as i64) as f32 * self.cell;
-                    next[k] = if d[k] != 0.0 {
-                        (boundary - o[k]) * inv[k]
-                    } else {
-                        f32::INFINITY
-                    };
+                    next[k] = boundary(k, c[k]);
                 }
                 t = t_out;
                 continue;
             }
-            let ci =
-                ((c[2] as usize * self.dims[1]) + c[1] as usize) * self.dims[0] + c[0] as usize;
-            let items = &self.items[self.start[ci] as usize..self.start[ci + 1] as usize];
+            let ci = self.cell_index(c);
+            if visit(&self.items[self.start[ci] as usize..self.start[ci + 1] as usize]) {
+                return true;
+            }
             let k = if next[0] < next[1] {
                 if next[0] < next[2] {
                     0
@@ -376,9 +367,6 @@ impl SegmentGrid {
             } else {
                 2
             };
-            if visit(items, next[k]) {
-                return;
-            }
             t = next[k];
             next[k] += delta[k];
             c[k] += step[k];
@@ -386,6 +374,13 @@ impl SegmentGrid {
                 break;
             }
         }
+        false
+    }
+
+    /// The index of the cell at grid coordinates `c` (inside the grid).
+    #[inline]
+    fn cell_index(&self, c: [i64; 3]) -> usize {
+        ((c[2] as usize * self.dims[1]) + c[1] as usize) * self.dims[0] + c[0] as usize
     }
 }
 

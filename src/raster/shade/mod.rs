@@ -532,41 +532,42 @@ impl<'a> Shader<'a> {
         };
         // (the near field traces the lights' shadows per bin of offsets)
         let near = unscattered.is_some() && matches!(self.hair, HairShading::ChiangFar(_));
+        let response = |inc: &Incident| {
+            if self.split {
+                self.unscattered_response(v, t, inc)
+            } else {
+                self.fiber_response(v, t, inc)
+            }
+        };
         for source in self.sources(self.split) {
             let Some(inc) = self.incident(source, p, t, v, fiber, need, !near, &mut tally) else {
                 continue;
             };
-            if let (Some(list), HairShading::ChiangFar(c), Source::Light(li)) =
+            let (Some(list), HairShading::ChiangFar(c), Source::Light(li)) =
                 (unscattered.as_deref_mut(), &self.hair, source)
-            {
-                // the near field shades this part per coverage sample
-                if inc.unscattered > 0.0 {
-                    if self.dual.is_some() {
-                        // what dual scattering adds to the direct light
-                        out += if self.split {
-                            self.unscattered_response(v, t, &inc)
-                        } else {
-                            self.fiber_response(v, t, &inc)
-                        } - chiang_far(c, t, v, inc.dir) * inc.irradiance * inc.unscattered;
-                    }
-                    let visible = self.offset_visibility(li, p, t, v, &fiber);
-                    if visible != 0 {
-                        list.push(NearLight {
-                            dir: inc.dir,
-                            irradiance: inc.irradiance * inc.unscattered,
-                            visible,
-                        });
-                    }
-                } else if self.dual.is_some() && !self.split {
-                    out += self.fiber_response(v, t, &inc);
-                }
+            else {
+                out += response(&inc);
                 continue;
-            }
-            out += if self.split {
-                self.unscattered_response(v, t, &inc)
-            } else {
-                self.fiber_response(v, t, &inc)
             };
+            // The near field shades the unscattered far field per coverage
+            // sample: without dual scattering that is all of the response;
+            // with it, what dual scattering adds stays here.
+            if self.dual.is_some() {
+                out += response(&inc);
+            }
+            if inc.unscattered > 0.0 {
+                if self.dual.is_some() {
+                    out -= chiang_far(c, t, v, inc.dir) * inc.irradiance * inc.unscattered;
+                }
+                let visible = self.offset_visibility(li, p, t, v, &fiber);
+                if visible != 0 {
+                    list.push(NearLight {
+                        dir: inc.dir,
+                        irradiance: inc.irradiance * inc.unscattered,
+                        visible,
+                    });
+                }
+            }
         }
         self.flush(tally);
         if !self.split {
