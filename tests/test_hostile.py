@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import resource
 import signal
 import struct
@@ -798,3 +799,103 @@ def test_22_overflowing_pixels_are_reported():
     with pytest.warns(RuntimeWarning, match=r"2303 of 2304 pixels overflowed"):
         img, st = hs.render(hs.Scene.from_dict(d), return_stats=True)
     assert st["non_finite_pixels"] == 2303 and np.all(np.isfinite(img))
+
+
+def _line_scene(**camera) -> dict:
+    """One vertical strand seen from +z, as a scene dict."""
+    cam = {"position": [0, 0.5, 2.5], "target": [0, 0.5, 0], "fov": 40, "resolution": [32, 18], **camera}
+    return {"hairshade_scene": 1, "camera": cam,
+            "lights": [{"type": "directional", "direction": [0.5, 0.7, 0.6], "intensity": [3, 3, 3]}],
+            "hair": {"strands": [{"points": [[0, 0, 0], [0, 1, 0]], "radius": 0.01}]}}
+
+
+@pytest.mark.parametrize("camera, field, words", [
+    # float32 cannot tell a target 1e-12 away from the position (the image was black)
+    (dict(target=[0, 0.5, 2.5 - 1e-12]), "camera.target", "at least 0.001 x 2.5"),
+    # the projected strand widths overflowed float32 (black)
+    (dict(fov=1e-30), "camera.fov", "[0.001, 179]"),
+    # 1e-6 rad from the viewing direction: the roll was float32's rounding
+    (dict(up=[0, 1e-6, -1]), "camera.up", "parallel to the viewing direction"),
+])
+def test_23_cameras_float32_cannot_carry_are_refused(camera, field, words):
+    """Degenerate cameras are refused by name, from a file and from a
+    Scene edited after loading alike; each worked case next to a refused
+    one (the bounds' derivation: ``scene.MIN_VIEW_SEPARATION``)."""
+    with pytest.raises(hs.SceneError, match=rf"{field}: .*{re.escape(words)}"):
+        hs.Scene.from_dict(_line_scene(**camera))
+    sc = hs.Scene.from_dict(_line_scene())
+    key, value = next(iter(camera.items()))
+    sc.camera[key] = value
+    with pytest.raises(hs.SceneError, match=rf"\(as edited\): {field}: .*{re.escape(words)}"):
+        hs.render(sc)
+    # the narrowest allowed fov still sees the strand: it fills the image
+    img = hs.render(hs.Scene.from_dict(_line_scene(fov=1e-3)))
+    assert np.all(img.sum(-1) > 0)
+
+
+def test_24_a_tiny_light_direction_is_a_direction():
+    """[1e-40, 0, 0] rounded to zero in float32 and lit the hair from +z;
+    it is normalized in float64 first: the same image as [1, 0, 0]."""
+    d = _line_scene()
+    d["lights"][0]["direction"] = [1e-40, 0, 0]
+    tiny = hs.render(hs.Scene.from_dict(d))
+    d["lights"][0]["direction"] = [1, 0, 0]
+    unit = hs.render(hs.Scene.from_dict(d))
+    d["lights"][0]["direction"] = [0, 0, 1]
+    plus_z = hs.render(hs.Scene.from_dict(d))
+    assert np.array_equal(tiny, unit)
+    assert not np.allclose(unit, plus_z)
+
+
+def test_25_a_scene_edited_after_loading_is_checked_again():
+    """Scene fields changed after loading go through the scene file's
+    checks before rendering (they reached the renderer unchecked: a zero
+    light rendered, an unknown key was ignored); a changed material builds
+    the hair model again."""
+    cases = {
+        "lights[0].vector: must not be zero": lambda s: s.lights[0].update(vector=[0, 0, 0]),
+        "lights[0].directionx: unknown field": lambda s: s.lights[0].update(directionx=[0, 0, 1]),
+        "camera.width: must be an integer in [1, 16384]": lambda s: s.camera.update(width=0),
+        "spheres[0].radius: must be in (0": lambda s: s.spheres.append(dict(center=[0, 0, 0], radius=-1,
+                                                                            albedo=[1, 1, 1])),
+        "points[1]: must be finite": lambda s: setattr(s, "points", np.array([[0, 0, 0], [0, np.inf, 0]])),
+        "hair.material: ": lambda s: s.material.update(roughness=7.0),
+    }
+    for words, edit in cases.items():
+        sc = hs.Scene.from_dict(_line_scene())
+        edit(sc)
+        with pytest.raises(hs.SceneError, match=re.escape(words)):
+            hs.render(sc)
+    sc = hs.Scene.from_dict(_line_scene())
+    karis = hs.render(sc)
+    sc.material = {"model": "chiang", "eumelanin": 0.2}
+    chiang = hs.render(sc)
+    assert type(sc.hair).__name__ == "ChiangHair" and not np.allclose(karis, chiang)
+
+
+def test_26_shadow_maps_stop_on_ctrl_c():
+    """Shadow maps polled no cancel flag: 400 triangles, each covering an
+    8192² map (67 M texels), take minutes to draw, and Ctrl-C waited for
+    them. The drawing polls it between segments, quads, triangles and rows:
+    KeyboardInterrupt within 3 s of the signal (the bound of test 06 on a
+    loaded 2-core machine; the render makes no other progress meanwhile)."""
+    dt, err = _interrupt_after("""
+        import os, tempfile
+        obj = os.path.join(tempfile.mkdtemp(), "wall.obj")
+        with open(obj, "w") as f:
+            for i in range(400):
+                z = -1 - 0.001 * i
+                f.write(f"v -50 -50 {z}\\nv 50 -50 {z}\\nv 0 50 {z}\\nf {3 * i + 1} {3 * i + 2} {3 * i + 3}\\n")
+        d = {"hairshade_scene": 1,
+             "camera": {"position": [0, 0, 2], "target": [0, 0, 0], "fov": 40, "resolution": [32, 18]},
+             "lights": [{"type": "directional", "direction": [0, 0, 1], "intensity": [2, 2, 2]}],
+             "hair": {"strands": [{"points": [[0, -0.5, 0], [0, 0.5, 0]], "radius": 0.01}]},
+             "meshes": [{"type": "obj", "file": obj}],
+             "render": {"shadows": {"opacity": {"map_size": 8192}}}}
+        s = hs.Scene.from_dict(d, allow_outside=True)
+        print("go", flush=True)
+        hs.render(s, progress=False)
+        print("finished")""", delay=1.0, timeout=120)
+    assert "KeyboardInterrupt" in err, err[-2000:]
+    print(f"{dt:.2f} s from Ctrl-C to exit")
+    assert dt < 3.0, f"{dt:.2f} s from Ctrl-C to exit"

@@ -12,7 +12,7 @@ import numpy.typing as npt
 
 from . import _native
 from ._progress import Bar
-from .scene import Scene
+from .scene import Scene, light_vector
 
 Image = npt.NDArray[np.float32]  # (H, W, 3) linear radiance
 
@@ -88,6 +88,7 @@ def _render(scene: Scene, width: int | None, height: int | None, progress: bool 
             options: dict[str, Any]) -> Any:
     """:func:`render` with the renderer's options resolved (the benchmark's
     speed-up switches are added to these)."""
+    scene.check()
     cam = dict(scene.camera)
     if width is not None or height is not None:
         for name, v in (("width", width), ("height", height)):
@@ -115,7 +116,7 @@ def _native_scene(scene: Scene, cam: dict[str, Any]) -> dict[str, Any]:
     meshes = scene.obj_meshes
     return dict(
         camera=(cam["position"], cam["target"], cam["up"], cam["fov"], cam["width"], cam["height"]),
-        lights=[(l["type"], l["vector"], l["intensity"], l["shadows"]) for l in scene.lights],
+        lights=[(l["type"], light_vector(l), l["intensity"], l["shadows"]) for l in scene.lights],
         environment=None if scene.environment_sh is None else [float(x) for x in scene.environment_sh.reshape(-1)],
         points=f32(scene.points),
         radii=f32(scene.radii),

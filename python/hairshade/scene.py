@@ -78,6 +78,7 @@ A scene file::
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import os
@@ -126,14 +127,72 @@ class Scene:
     obj_meshes: list[dict[str, Any]] = field(default_factory=list, init=False)
 
     def __post_init__(self) -> None:
+        self._build_hair()
+
+    def _build_hair(self) -> None:
         m = dict(self.material)
-        model = m.pop("model")
+        model = m.pop("model", None)
         from .deon import DEonHair
 
+        if model not in ("karis", "chiang", "deon"):
+            raise SceneError(f"{self.source}: hair.material.model: expected 'karis', 'chiang' or 'deon', got {model!r:.80}")
         try:
             self.hair = {"karis": KarisHair, "chiang": ChiangHair, "deon": DEonHair}[model](**m)
         except (TypeError, ValueError) as e:
             raise SceneError(f"{self.source}: hair.material: {e}") from None
+        self._material_built = copy.deepcopy(self.material)
+
+    def check(self) -> None:
+        """Checks the scene's fields as a scene file's are checked, for a
+        scene edited after loading (``render`` calls it): the camera, lights,
+        spheres, environment and strand arrays, with the same limits and
+        messages naming the field; a changed ``material`` builds the hair
+        model again (``hair`` follows it). Raises :class:`SceneError`."""
+        c = _Ctx(f"{self.source} (as edited)")
+        cam = c.obj(self.camera, "camera")
+        c.known(cam, "camera", {"position", "target", "up", "fov", "width", "height"})
+        camera = dict(
+            position=c.vec3(cam.get("position"), "camera.position"),
+            target=c.vec3(cam.get("target"), "camera.target"),
+            up=c.vec3(cam.get("up"), "camera.up"),
+            fov=c.num(cam.get("fov"), "camera.fov", 0, 179, lo_open=True),
+            width=c.integer(cam.get("width"), "camera.width", 1, 16384),
+            height=c.integer(cam.get("height"), "camera.height", 1, 16384),
+        )
+        _check_view(c, camera)
+        if not isinstance(self.lights, list):
+            c.fail("lights", "expected a list")
+        for i, l in enumerate(self.lights):
+            p = f"lights[{i}]"
+            l = c.obj(l, p)
+            c.known(l, p, {"type", "vector", "intensity", "shadows"})
+            if l.get("type") not in ("directional", "point"):
+                c.fail(f"{p}.type", f"expected 'directional' or 'point', got {l.get('type')!r:.80}")
+            v = c.vec3(l.get("vector"), f"{p}.vector")
+            if l["type"] == "directional":
+                _unit(c, v, f"{p}.vector")
+            c.vec3(l.get("intensity"), f"{p}.intensity", 0)
+            c.boolean(l.get("shadows"), f"{p}.shadows")
+        if not isinstance(self.spheres, list):
+            c.fail("spheres", "expected a list")
+        for i, sp in enumerate(self.spheres):
+            p = f"spheres[{i}]"
+            sp = c.obj(sp, p)
+            c.known(sp, p, {"center", "radius", "albedo"})
+            c.vec3(sp.get("center"), f"{p}.center")
+            c.num(sp.get("radius"), f"{p}.radius", 0, lo_open=True)
+            c.vec3(sp.get("albedo"), f"{p}.albedo", 0, 1)
+        if self.environment_sh is not None:
+            sh = np.asarray(self.environment_sh)
+            if sh.shape != (9, 3) or not np.all(np.abs(sh) <= MAX_MAGNITUDE):
+                c.fail("environment_sh", f"expected 9 x 3 finite numbers of magnitude at most {MAX_MAGNITUDE:g}, "
+                                         f"got shape {sh.shape}")
+        try:
+            _strand_arrays(self.points, self.radii, self.offsets)
+        except SceneError as e:
+            raise SceneError(f"{c.source}: {e}") from None
+        if self.material != self._material_built:
+            self._build_hair()
 
     @property
     def strand_count(self) -> int:
@@ -404,6 +463,66 @@ def _magnitude_error(p: np.ndarray, r: np.ndarray, points: str, radii: str) -> s
     return None
 
 
+#: The smallest sine of the angle between the viewing direction and
+#: camera.up, and the smallest distance between camera.target and
+#: camera.position relative to their size: float32 rounds each coordinate
+#: by up to 6e-8 of its magnitude, so the viewing direction (target -
+#: position) is then known to about 1e-4 rad (0.1 pixel of a 640-pixel
+#: image at 40 degrees), and the image's roll to 1e-4 rad.
+MIN_VIEW_SEPARATION = 1e-3
+#: The narrowest field of view in degrees (at 1e-30 the projected strand
+#: widths overflow float32 and the image is black).
+MIN_FOV = 1e-3
+
+
+def _unit(c: "_Ctx", v: list[float], path: str) -> list[float]:
+    """The unit vector along ``v``, normalized in float64 after scaling by
+    its largest component (so [1e-40, 0, 0] is +x, not a vector float32
+    rounds to zero)."""
+    a = np.asarray(v, dtype=np.float64)
+    m = float(np.max(np.abs(a)))
+    if m == 0:
+        c.fail(path, "must not be zero")
+    a = a / m
+    return (a / np.linalg.norm(a)).tolist()
+
+
+def light_vector(light: dict[str, Any]) -> list[float]:
+    """What the renderers take of a light of ``Scene.lights``: a point
+    light's position, or a directional light's unit direction (towards the
+    light), normalized in float64 after scaling by its largest component (a
+    tiny vector such as [1e-40, 0, 0] would round to zero in float32)."""
+    v = np.asarray(light["vector"], dtype=np.float64)
+    if light["type"] != "directional":
+        return v.tolist()
+    v = v / np.max(np.abs(v))
+    return (v / np.linalg.norm(v)).tolist()
+
+
+def _check_view(c: "_Ctx", camera: dict[str, Any]) -> None:
+    """A camera float32 can carry: target away from position, up away from
+    the viewing direction, fov not below MIN_FOV (the numbers themselves
+    already checked)."""
+    pos, target, up = (np.asarray(camera[k], dtype=np.float64) for k in ("position", "target", "up"))
+    fwd = target - pos
+    size = max(float(np.max(np.abs(pos))), float(np.max(np.abs(target))))
+    dist = float(np.linalg.norm(fwd))
+    if dist == 0:
+        c.fail("camera.target", "must differ from camera.position")
+    if dist < MIN_VIEW_SEPARATION * size:
+        c.fail("camera.target", f"must be at least {MIN_VIEW_SEPARATION:g} x {size:.6g} (the larger coordinate of "
+                                f"position and target) from camera.position for float32 to resolve the viewing "
+                                f"direction, got {dist:.3g}")
+    if not np.any(up):
+        c.fail("camera.up", "must not be zero")
+    up_n = up / np.max(np.abs(up))
+    if np.linalg.norm(np.cross(fwd / dist, up_n / np.linalg.norm(up_n))) < MIN_VIEW_SEPARATION:
+        c.fail("camera.up", f"must not be parallel to the viewing direction (at least {MIN_VIEW_SEPARATION:g} rad "
+                            "away from it)")
+    if camera["fov"] < MIN_FOV:
+        c.fail("camera.fov", f"must be in [{MIN_FOV:g}, 179] degrees, got {camera['fov']:.3g}")
+
+
 def _parse(d: Any, base_dir: str, source: str,
            strands: list[tuple[np.ndarray, np.ndarray]] | None = None, allow_outside: bool = False) -> Scene:
     """The validated scene of the dict ``d``; ``strands``: (points, radii)
@@ -431,11 +550,7 @@ def _parse(d: Any, base_dir: str, source: str,
         width=width,
         height=height,
     )
-    fwd = np.subtract(camera["target"], camera["position"])
-    if np.linalg.norm(fwd) == 0:
-        c.fail("camera.target", "must differ from camera.position")
-    if np.linalg.norm(np.cross(fwd, camera["up"])) < 1e-9 * np.linalg.norm(fwd):
-        c.fail("camera.up", "must not be parallel to the viewing direction")
+    _check_view(c, camera)
 
     lights: list[dict[str, Any]] = []
     env = None
@@ -449,8 +564,7 @@ def _parse(d: Any, base_dir: str, source: str,
         if kind == "directional":
             c.known(l, p, {"type", "direction", "intensity", "shadows"})
             direction = c.vec3(l.get("direction"), f"{p}.direction")
-            if np.linalg.norm(direction) == 0:
-                c.fail(f"{p}.direction", "must not be zero")
+            _unit(c, direction, f"{p}.direction")
             lights.append(dict(type=kind, vector=direction, intensity=c.vec3(l.get("intensity"), f"{p}.intensity", 0),
                                shadows=c.boolean(l.get("shadows", True), f"{p}.shadows")))
         elif kind == "point":

@@ -188,7 +188,18 @@ pub fn render_with_progress(
     } else {
         0
     };
-    let shadows = shadow_maps(scene, opts, &world, bounds, geometry, &mut stats);
+    let shadows = shadow_maps(
+        scene,
+        opts,
+        &world,
+        bounds,
+        geometry,
+        &mut stats,
+        Some(cancel),
+    );
+    if cancel.load(Ordering::Relaxed) {
+        return None;
+    }
     stats.shadow_ms = ms(t0);
 
     // 3. Segments, frustum culling, per-vertex shading.
@@ -320,6 +331,7 @@ fn shadow_maps(
     bounds: setup::Bounds,
     geometry: u64,
     stats: &mut RenderStats,
+    cancel: Option<&AtomicBool>,
 ) -> Vec<Option<Arc<ShadowMap>>> {
     let unneeded = cull::lights_without_visible_effect(scene, opts, bounds);
     let built: Vec<(Option<Arc<ShadowMap>>, bool)> = pool().install(|| {
@@ -331,10 +343,10 @@ fn shadow_maps(
                 if skip {
                     (None, false)
                 } else if opts.reuse_shadow_maps {
-                    ShadowMap::build_cached(l, scene, world, bounds, opts, geometry)
+                    ShadowMap::build_cached(l, scene, world, bounds, opts, geometry, cancel)
                 } else {
                     (
-                        ShadowMap::build(l, scene, world, bounds, opts).map(Arc::new),
+                        ShadowMap::build(l, scene, world, bounds, opts, cancel).map(Arc::new),
                         false,
                     )
                 }

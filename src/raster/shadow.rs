@@ -18,6 +18,7 @@ use super::scene::{Light, RenderOptions, Scene};
 use super::setup::{Bounds, WorldSegment};
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::atomic::AtomicBool;
 
 mod cache;
 mod lookup;
@@ -150,20 +151,49 @@ impl LightProjection {
     }
 }
 
+/// A render's cancel flag as the map's drawing polls it.
+#[derive(Clone, Copy)]
+struct Stop<'a>(Option<&'a AtomicBool>);
+
+impl Stop<'_> {
+    #[inline]
+    fn now(&self) -> bool {
+        self.0
+            .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
+    }
+}
+
+/// `n` copies of `v`, written in chunks between which `stop` is polled
+/// (an 8192² opacity map fills 4 GB of layers: seconds); shorter once
+/// stopped (the flag stays set, so the caller sees it and returns).
+fn filled<T: Copy>(n: usize, v: T, stop: Stop) -> Vec<T> {
+    const CHUNK: usize = 1 << 20;
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n && !stop.now() {
+        let k = (n - out.len()).min(CHUNK);
+        out.extend(std::iter::repeat_n(v, k));
+    }
+    out
+}
+
 fn basis(forward: Vec3) -> (Vec3, Vec3) {
     let right = forward.any_orthonormal_vector();
     (right, forward.cross(right))
 }
 
 impl ShadowMap {
-    /// The map for `light`, or None when it casts no shadows.
+    /// The map for `light`, or None when it casts no shadows or `cancel`
+    /// was set while it was drawn (polled between segments, quads,
+    /// triangles and rows of texels).
     pub fn build(
         light: &Light,
         scene: &Scene,
         segments: &[WorldSegment],
         bounds: Bounds,
         opts: &RenderOptions,
+        cancel: Option<&AtomicBool>,
     ) -> Option<Self> {
+        let stop = Stop(cancel);
         let Bounds { center, radius } = bounds;
         let proj = match *light {
             Light::Directional {
@@ -208,10 +238,18 @@ impl ShadowMap {
         };
         let n = opts.shadow_map_size.max(16);
         let texel = 2.0 * radius / n as f32;
+        let texels = (n * n) as usize;
+        let (hair, opaque) = (
+            filled(texels, f32::INFINITY, stop),
+            filled(texels, f32::INFINITY, stop),
+        );
+        if stop.now() {
+            return None;
+        }
         let mut m = ShadowMap {
             size: n,
-            hair: vec![f32::INFINITY; (n * n) as usize],
-            opaque: vec![f32::INFINITY; (n * n) as usize],
+            hair,
+            opaque,
             proj,
             density: opts.shadow_density,
             pcf: opts.pcf_radius.max(0),
@@ -223,18 +261,21 @@ impl ShadowMap {
             slab_width: 0.5 * texel,
         };
         if !matches!(m.model, ShadowModel::Density | ShadowModel::Traced) {
-            m.draw_hair(segments);
-            m.draw_cards(scene, false);
+            m.draw_hair(segments, stop);
+            m.draw_cards(scene, false, stop);
         }
         if m.model == ShadowModel::Opacity {
-            m.slabs = vec![0.0; (n * n) as usize * SLABS];
-            m.layers = vec![Deposit::EMPTY; (n * n) as usize * LAYERS];
-            m.accumulate_hair(segments);
-            m.draw_cards(scene, true);
+            m.slabs = vec![0.0; texels * SLABS];
+            m.layers = filled(texels * LAYERS, Deposit::EMPTY, stop);
+            if stop.now() {
+                return None;
+            }
+            m.accumulate_hair(segments, stop);
+            m.draw_cards(scene, true, stop);
         }
-        m.draw_spheres(scene);
-        m.draw_triangles(scene);
-        Some(m)
+        m.draw_spheres(scene, stop);
+        m.draw_triangles(scene, stop);
+        (!stop.now()).then_some(m)
     }
 
     /// Continuous slab position of a depth `d` ≥ 0 behind the first hair:
@@ -252,9 +293,9 @@ impl ShadowMap {
 
     /// First-hair depth of the strands, drawn in parallel
     /// ([`Self::min_depth_in_parallel`]).
-    fn draw_hair(&mut self, segments: &[WorldSegment]) {
+    fn draw_hair(&mut self, segments: &[WorldSegment], stop: Stop) {
         self.min_depth_in_parallel(segments.len(), |this, range, buf| {
-            this.draw_hair_into(&segments[range], buf)
+            this.draw_hair_into(&segments[range], buf, stop)
         });
     }
 
@@ -290,9 +331,12 @@ impl ShadowMap {
         }
     }
 
-    fn draw_hair_into(&self, segments: &[WorldSegment], hair: &mut [f32]) {
+    fn draw_hair_into(&self, segments: &[WorldSegment], hair: &mut [f32], stop: Stop) {
         let n = self.size as f32;
-        for &WorldSegment { a, b, ra, rb, .. } in segments {
+        for (i, &WorldSegment { a, b, ra, rb, .. }) in segments.iter().enumerate() {
+            if i % 64 == 0 && stop.now() {
+                return;
+            }
             let (Some(pa), Some(pb)) = (self.proj.map(a), self.proj.map(b)) else {
                 continue;
             };
@@ -340,21 +384,23 @@ impl ShadowMap {
     /// Cards: their texels with alpha above one half set the first-hair
     /// depth (`accumulate` false; in parallel, [`Self::min_depth_in_parallel`]),
     /// or add `−ln(1 − alpha)` to their slab.
-    fn draw_cards(&mut self, scene: &Scene, accumulate: bool) {
+    fn draw_cards(&mut self, scene: &Scene, accumulate: bool, stop: Stop) {
         let quads = scene.cards.quad_count();
         if quads == 0 {
             return;
         }
         if accumulate {
             let mut texels = Vec::new();
-            self.card_texels(scene, 0..quads, |i, z, alpha| texels.push((i, z, alpha)));
+            self.card_texels(scene, 0..quads, stop, |i, z, alpha| {
+                texels.push((i, z, alpha))
+            });
             for (i, z, alpha) in texels {
                 self.add_optical_depth(i, z, alpha, NO_STRAND, 0);
             }
             return;
         }
         self.min_depth_in_parallel(quads, |this, range, buf| {
-            this.card_texels(scene, range, |i, z, alpha| {
+            this.card_texels(scene, range, stop, |i, z, alpha| {
                 if alpha >= 0.5 && z < buf[i] {
                     buf[i] = z;
                 }
@@ -368,11 +414,15 @@ impl ShadowMap {
         &self,
         scene: &Scene,
         range: std::ops::Range<usize>,
+        stop: Stop,
         mut emit: impl FnMut(usize, f32, f32),
     ) {
         let c = &scene.cards;
         let n = self.size as f32;
         for q in range {
+            if stop.now() {
+                return;
+            }
             for tri in [[0, 1, 2], [0, 2, 3]] {
                 let idx = tri.map(|k| 4 * q + k);
                 let m = idx.map(|i| self.proj.map(c.corners[i]));
@@ -437,10 +487,13 @@ impl ShadowMap {
     /// same texel (at joints, or along a strand running towards the light)
     /// the deposit takes the nearest depth and the largest coverage (a ray
     /// through the texel meets the fiber once).
-    fn accumulate_hair(&mut self, segments: &[WorldSegment]) {
+    fn accumulate_hair(&mut self, segments: &[WorldSegment], stop: Stop) {
         let mut merged: std::collections::HashMap<usize, (f32, f32, u32)> = Default::default();
         let mut start = 0;
         while start < segments.len() {
+            if stop.now() {
+                return;
+            }
             let strand = segments[start].strand;
             let end = start
                 + segments[start..]
@@ -517,9 +570,12 @@ impl ShadowMap {
     }
 
     /// Opaque mesh triangles into the opaque depth.
-    fn draw_triangles(&mut self, scene: &Scene) {
+    fn draw_triangles(&mut self, scene: &Scene, stop: Stop) {
         let n = self.size as f32;
         for t in &scene.triangles {
+            if stop.now() {
+                return;
+            }
             let m = t.p.map(|c| self.proj.map(c));
             let Some(m) = m.iter().copied().collect::<Option<Vec<_>>>() else {
                 continue;
@@ -543,12 +599,15 @@ impl ShadowMap {
         }
     }
 
-    fn draw_spheres(&mut self, scene: &Scene) {
+    fn draw_spheres(&mut self, scene: &Scene, stop: Stop) {
         if scene.spheres.is_empty() {
             return;
         }
         let n = self.size;
         for yi in 0..n {
+            if stop.now() {
+                return;
+            }
             for xi in 0..n {
                 let (u, v) = ((xi as f32 + 0.5) / n as f32, (yi as f32 + 0.5) / n as f32);
                 let (o, d) = self.proj.ray(u, v);

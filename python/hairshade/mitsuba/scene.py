@@ -40,8 +40,9 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
     ChiangHair fitted by :func:`hairshade.mapping.chiang_params` (or
     ``hair_params`` when given). Spheres get a diffuse BSDF."""
     from ..mapping import chiang_params
-    from ..scene import write_strand_file
+    from ..scene import light_vector, write_strand_file
 
+    scene.check()
     cam = scene.camera
     w, h = width or cam["width"], height or cam["height"]
     d: dict[str, Any] = {
@@ -83,8 +84,7 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
                          "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": m["albedo"]}}}}
     for i, l in enumerate(scene.lights):
         if l["type"] == "directional":
-            v = np.asarray(l["vector"], dtype=np.float64)
-            d[f"light_{i}"] = {"type": "directional", "direction": (-v / np.linalg.norm(v)).tolist(),
+            d[f"light_{i}"] = {"type": "directional", "direction": (-np.asarray(light_vector(l))).tolist(),
                                "irradiance": {"type": "rgb", "value": l["intensity"]}}
         else:
             d[f"light_{i}"] = {"type": "point", "position": l["vector"], "intensity": {"type": "rgb", "value": l["intensity"]}}

@@ -161,7 +161,7 @@ mod tests {
         let shadows: Vec<_> = scene
             .lights
             .iter()
-            .map(|l| ShadowMap::build(l, &scene, &world, bounds, &opts).map(Arc::new))
+            .map(|l| ShadowMap::build(l, &scene, &world, bounds, &opts, None).map(Arc::new))
             .collect();
         let opts = RenderOptions {
             light_cull_threshold: 0.0,

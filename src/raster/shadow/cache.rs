@@ -103,6 +103,7 @@ impl ShadowMap {
         bounds: Bounds,
         opts: &RenderOptions,
         geometry: u64,
+        cancel: Option<&std::sync::atomic::AtomicBool>,
     ) -> (Option<std::sync::Arc<ShadowMap>>, bool) {
         let (pos_or_dir, shadows) = match *light {
             Light::Directional {
@@ -134,7 +135,7 @@ impl ShadowMap {
                 return (Some(map), true);
             }
         }
-        let Some(m) = Self::build(light, scene, segments, bounds, opts) else {
+        let Some(m) = Self::build(light, scene, segments, bounds, opts, cancel) else {
             return (None, false);
         };
         let m = std::sync::Arc::new(m);
