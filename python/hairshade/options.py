@@ -155,6 +155,10 @@ class VolumeOptions(TypedDict, total=False):
         "photons traced per light, the environment counted as one light")]
     bins: Annotated[int, Native("volume_bins"), Doc(
         "octahedral direction bins per side (bins² directions per voxel)")]
+    transport: Annotated[Literal["medium", "strands"], Native("volume_transport"), Doc(
+        "photons fly through the oriented fiber medium, or between the fibers they really meet, traced "
+        "through the strands (exact transport: its error falls with the resolution, docs/volume_transport.md; "
+        "slower)")]
 
 
 class NoOptions(TypedDict, total=False):

@@ -8,7 +8,9 @@ use super::convert::{run_polling, to_numpy};
 use super::scene_args::{build_scene, SceneArgs};
 use crate::fiber::number_text;
 use crate::raster::lod::Lod;
-use crate::raster::scene::{Backscatter, MultipleScattering, RenderOptions, Transparency};
+use crate::raster::scene::{
+    Backscatter, MultipleScattering, RenderOptions, Transparency, VolumeTransport,
+};
 use crate::raster::shadow::ShadowModel;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyValueError};
 use pyo3::prelude::*;
@@ -322,6 +324,10 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         volume_resolution: r.int("volume_resolution", def.volume_resolution as i64)? as usize,
         volume_photons: r.int("volume_photons", def.volume_photons as i64)? as usize,
         volume_bins: r.int("volume_bins", def.volume_bins as i64)? as usize,
+        volume_transport: match r.choice("volume_transport", "medium", &["medium", "strands"])? {
+            "strands" => VolumeTransport::Strands,
+            _ => VolumeTransport::Medium,
+        },
         sphere_bounce: r.flag("sphere_bounce", def.sphere_bounce)?,
         near_field: r.flag("near_field", def.near_field)?,
         environment_directions: r
@@ -401,6 +407,13 @@ fn options_dict<'py>(
     d.set_item("volume_resolution", o.volume_resolution)?;
     d.set_item("volume_photons", o.volume_photons)?;
     d.set_item("volume_bins", o.volume_bins)?;
+    d.set_item(
+        "volume_transport",
+        match o.volume_transport {
+            VolumeTransport::Medium => "medium",
+            VolumeTransport::Strands => "strands",
+        },
+    )?;
     d.set_item("sphere_bounce", o.sphere_bounce)?;
     d.set_item("near_field", o.near_field)?;
     d.set_item("environment_directions", o.environment_directions)?;

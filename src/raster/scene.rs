@@ -267,6 +267,8 @@ pub struct RenderOptions {
     pub volume_resolution: usize,
     pub volume_photons: usize,
     pub volume_bins: usize,
+    /// How the volume's photons fly (`render.volume_transport`).
+    pub volume_transport: VolumeTransport,
     /// Under dual scattering, the light opaque spheres reflect into the
     /// hair ([`super::bounce`]).
     pub sphere_bounce: bool,
@@ -324,6 +326,7 @@ impl Default for RenderOptions {
             volume_resolution: 48,
             volume_photons: 1 << 18,
             volume_bins: 8,
+            volume_transport: VolumeTransport::Medium,
             sphere_bounce: true,
             near_field: true,
             environment_directions: super::env_light::DIRECTIONS,
@@ -340,6 +343,17 @@ pub enum Backscatter {
     Local,
     /// The two-stream slab along each light's line (`"two_stream"`).
     TwoStream,
+}
+
+/// How photons fly in the volume solve (`render.volume_transport`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum VolumeTransport {
+    /// Through the oriented fiber medium (`"medium"`), calibrated against
+    /// the strands.
+    Medium,
+    /// Between the fibers they really meet, traced through the strands
+    /// (`"strands"`); the medium only holds the tallies.
+    Strands,
 }
 
 /// Everything the renderer draws.

@@ -64,6 +64,25 @@ impl Capsule {
     }
 }
 
+/// What a ray passes unblocked: its own strand up to `t_own`, and each
+/// strand of `inside` up to its parameter.
+struct Passes {
+    strand: u32,
+    t_own: f32,
+    inside: [(u32, f32); 8],
+    n_inside: usize,
+}
+
+impl Passes {
+    #[inline]
+    fn passed(&self, strand: u32, t: f32) -> bool {
+        (strand == self.strand && t <= self.t_own)
+            || self.inside[..self.n_inside]
+                .iter()
+                .any(|&(st, t_leave)| st == strand && t <= t_leave)
+    }
+}
+
 impl SegmentGrid {
     /// The grid of `segments`, cells a quarter of the mean segment length wide (at most
     /// 256 cells a side); None without segments.
@@ -213,45 +232,100 @@ impl SegmentGrid {
     /// meet that curve again from inside). Beyond that its own strand
     /// shadows like any other (a curl turning back).
     pub fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, fiber: &super::shade::Fiber) -> bool {
-        let t_own = self.own_tube_exit(o, d, fiber);
-        let Some(entry @ (t_enter, c)) = self.enter(o, d, t_max) else {
+        let Some(entry) = self.enter(o, d, t_max) else {
             return false;
+        };
+        let passes = self.passes(o, d, entry, fiber);
+        self.walk(o, d, t_max, entry, |items, _| {
+            items.iter().any(|&i| {
+                let s = &self.segments[i as usize];
+                s.may_hit(o, d, t_max)
+                    && !fiber.is_local(s.strand, s.segment)
+                    && capsule_hit(o, d, t_max, s).is_some_and(|t| !passes.passed(s.strand, t))
+            })
+        })
+    }
+
+    /// The first segment the ray from `o` along unit `d` meets before
+    /// `t_max`, passing what [`Self::occluded`] passes: the ray parameter
+    /// of its closest approach to the axis (within a radius of where the
+    /// ray enters the fiber), and the fiber met (its unit tangent, strand
+    /// and segment).
+    pub fn first_hit(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        fiber: &super::shade::Fiber,
+    ) -> Option<(f32, Vec3, super::shade::Fiber)> {
+        let entry = self.enter(o, d, t_max)?;
+        let passes = self.passes(o, d, entry, fiber);
+        let mut best: Option<(f32, u32)> = None;
+        self.walk(o, d, t_max, entry, |items, t_cell_exit| {
+            for &i in items {
+                let s = &self.segments[i as usize];
+                let t_best = best.map_or(t_max, |b| b.0);
+                if s.may_hit(o, d, t_best) && !fiber.is_local(s.strand, s.segment) {
+                    if let Some(t) = capsule_hit(o, d, t_best, s) {
+                        if !passes.passed(s.strand, t) && best.is_none_or(|b| t < b.0) {
+                            best = Some((t, i));
+                        }
+                    }
+                }
+            }
+            // a hit within this cell is the first: later cells lie beyond it
+            best.is_some_and(|b| b.0 <= t_cell_exit)
+        });
+        best.map(|(t, i)| {
+            let s = &self.segments[i as usize];
+            (
+                t,
+                s.u.normalize_or_zero(),
+                super::shade::Fiber {
+                    radius: s.r2.sqrt(),
+                    strand: s.strand,
+                    segment: s.segment,
+                },
+            )
+        })
+    }
+
+    /// What a ray from a point of `fiber` passes (its own strand inside
+    /// its own tube; strands whose tube holds the origin, until it leaves
+    /// them).
+    fn passes(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        (t_enter, c): (f32, [i64; 3]),
+        fiber: &super::shade::Fiber,
+    ) -> Passes {
+        let mut p = Passes {
+            strand: fiber.strand,
+            t_own: self.own_tube_exit(o, d, fiber),
+            inside: [(u32::MAX, 0.0f32); 8],
+            n_inside: 0,
         };
         // Other strands whose tube the ray starts in (fibers that
         // interpenetrate): each is passed as the own strand is, until the
         // ray leaves the cylinder of the capsule that holds the origin (a
         // path tracer's ray leaves a curve it starts inside unblocked).
-        let mut inside = [(u32::MAX, 0.0f32); 8];
-        let mut n_inside = 0;
         if t_enter == 0.0 {
             let ci = self.cell_index(c);
             for &i in &self.items[self.start[ci] as usize..self.start[ci + 1] as usize] {
                 let s = &self.segments[i as usize];
                 if s.strand != fiber.strand && contains(o, s) {
                     let t_leave = tube_exit(o, d, s);
-                    if let Some(e) = inside[..n_inside].iter_mut().find(|e| e.0 == s.strand) {
+                    if let Some(e) = p.inside[..p.n_inside].iter_mut().find(|e| e.0 == s.strand) {
                         e.1 = e.1.max(t_leave);
-                    } else if n_inside < inside.len() {
-                        inside[n_inside] = (s.strand, t_leave);
-                        n_inside += 1;
+                    } else if p.n_inside < p.inside.len() {
+                        p.inside[p.n_inside] = (s.strand, t_leave);
+                        p.n_inside += 1;
                     }
                 }
             }
         }
-        let passed = |strand: u32, t: f32| {
-            (strand == fiber.strand && t <= t_own)
-                || inside[..n_inside]
-                    .iter()
-                    .any(|&(st, t_leave)| st == strand && t <= t_leave)
-        };
-        self.walk(o, d, t_max, entry, |items| {
-            items.iter().any(|&i| {
-                let s = &self.segments[i as usize];
-                s.may_hit(o, d, t_max)
-                    && !fiber.is_local(s.strand, s.segment)
-                    && capsule_hit(o, d, t_max, s).is_some_and(|t| !passed(s.strand, t))
-            })
-        })
+        p
     }
 
     /// The grid cell where the ray from `o` along `d` enters the grid's box
@@ -281,14 +355,15 @@ impl SegmentGrid {
     /// the grid (`entry`, from [`Self::enter`]), in order (a 3D DDA,
     /// Amanatides & Woo; empty blocks crossed in one step), until `visit`
     /// returns true (then true) or the ray leaves the grid or passes
-    /// `t_max`.
+    /// `t_max`. `visit` gets the cell's items and the ray parameter where
+    /// the ray leaves the cell.
     fn walk(
         &self,
         o: Vec3,
         d: Vec3,
         t_max: f32,
         (t_enter, mut c): (f32, [i64; 3]),
-        mut visit: impl FnMut(&[u32]) -> bool,
+        mut visit: impl FnMut(&[u32], f32) -> bool,
     ) -> bool {
         let inv = Vec3::ONE / d;
         let step = [0, 1, 2].map(|k| if d[k] > 0.0 { 1i64 } else { -1 });
@@ -353,7 +428,11 @@ impl SegmentGrid {
                 continue;
             }
             let ci = self.cell_index(c);
-            if visit(&self.items[self.start[ci] as usize..self.start[ci + 1] as usize]) {
+            let t_exit = next[0].min(next[1]).min(next[2]);
+            if visit(
+                &self.items[self.start[ci] as usize..self.start[ci + 1] as usize],
+                t_exit,
+            ) {
                 return true;
             }
             let k = if next[0] < next[1] {

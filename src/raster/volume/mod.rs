@@ -32,7 +32,7 @@ pub mod response;
 pub mod trace;
 
 use crate::raster::env_light::EnvLights;
-use crate::raster::scene::{HairShading, Light, RenderOptions, Scene};
+use crate::raster::scene::{HairShading, Light, RenderOptions, Scene, VolumeTransport};
 use crate::threads::pool;
 use bins::Bins;
 use glam::Vec3;
@@ -65,6 +65,8 @@ pub struct VolumeSettings {
     pub photons: usize,
     /// Octahedral direction bins per side (`bins²` per voxel).
     pub bins: usize,
+    /// How the photons fly.
+    pub transport: VolumeTransport,
 }
 
 impl VolumeSettings {
@@ -73,6 +75,7 @@ impl VolumeSettings {
             resolution: opts.volume_resolution,
             photons: opts.volume_photons,
             bins: opts.volume_bins,
+            transport: opts.volume_transport,
         }
     }
 }
@@ -191,6 +194,7 @@ impl VolumeRadiance {
                 phase: &phase,
                 spheres: &scene.spheres,
                 tally: &tally,
+                strands: grid.filter(|_| settings.transport == VolumeTransport::Strands),
             };
             let chunks = n.div_ceil(CHUNK);
             pool().install(|| {
@@ -522,6 +526,7 @@ fn key(scene: &Scene, geometry: u64, env: Option<&EnvLights>, s: &VolumeSettings
     h.word(s.resolution as u64);
     h.word(s.photons as u64);
     h.word(s.bins as u64);
+    h.word(s.transport as u64);
     h.finish()
 }
 

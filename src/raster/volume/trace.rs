@@ -289,6 +289,10 @@ pub struct Transport<'a> {
     pub phase: &'a Phase<'a>,
     pub spheres: &'a [Sphere],
     pub tally: &'a Tally<'a>,
+    /// The strands themselves: when set, photons fly between the fibers
+    /// they really meet (traced through the strands' grid), and the medium
+    /// only holds the tallies.
+    pub strands: Option<&'a crate::raster::traced::SegmentGrid>,
 }
 
 /// Traces one photon.
@@ -300,16 +304,25 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
         mut w,
     } = photon;
     let mut events = 0u32;
+    // the fiber the photon leaves (strand transport)
+    let mut fiber = crate::raster::shade::Fiber::NONE;
     let inv_voxel = 1.0 / m.voxel;
     let inv_cell = 1.0 / m.cells.size;
     loop {
         let sphere = sphere_hit(spheres, o, d);
         let t_sphere = sphere.map_or(f32::INFINITY, |s| s.0);
-        // the flight: optical depth to the next collision
-        let mut tau = -(1.0 - rng.uniform()).ln();
+        // the flight: through the strands, the first fiber met; through
+        // the medium, the optical depth to the next collision
+        let hit = tr.strands.and_then(|g| g.first_hit(o, d, t_sphere, &fiber));
+        let mut tau = if tr.strands.is_some() {
+            f32::INFINITY
+        } else {
+            -(1.0 - rng.uniform()).ln()
+        };
+        let t_hit = hit.map_or(f32::INFINITY, |h| h.0);
         let mut collided = None;
         if let Some((t_in, t_out)) = box_hit(m, o, d) {
-            let t_end = t_out.min(t_sphere);
+            let t_end = t_out.min(t_sphere).min(t_hit);
             // regular tracking, voxel by voxel (Amanatides & Woo)
             let p = (o + d * t_in - m.origin) * inv_voxel;
             let dims = [m.dims[0] as i32, m.dims[1] as i32, m.dims[2] as i32];
@@ -380,8 +393,17 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
         if events >= MAX_EVENTS {
             return;
         }
-        if let Some((tc, s)) = collided {
-            // a fiber
+        if let Some((tc, t_fiber, met)) = hit {
+            // a strand's fiber
+            o += d * tc;
+            fiber = met;
+            let Some((dn, f)) = phase.scatter(d, t_fiber, rng) else {
+                return;
+            };
+            d = dn;
+            w *= f;
+        } else if let Some((tc, s)) = collided {
+            // a fiber of the medium
             o += d * tc;
             let t = m.fiber_met(s, d, rng.uniform());
             let Some((dn, f)) = phase.scatter(d, t, rng) else {
@@ -395,6 +417,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
             o += d * ts;
             let n = (o - sp.center).normalize();
             o = sp.center + n * (sp.radius * (1.0 + 1e-5));
+            fiber = crate::raster::shade::Fiber::NONE;
             let (a, b) = n.any_orthonormal_pair();
             let (u1, u2) = (rng.uniform(), rng.uniform());
             let r = u1.sqrt();
