@@ -283,6 +283,11 @@ impl<T: Real> DEonHair<T> {
         )
     }
 
+    /// Offsets h per lobe evaluation: None converged (adaptive quadrature).
+    pub fn h_samples(&self) -> Option<u32> {
+        self.h_samples
+    }
+
     /// ½ ∫_{-π/2}^{π/2} f(γ) dγ (f includes the Jacobian cos γ), converged or stratified.
     fn integrate_h<const N: usize>(
         &self,
@@ -297,6 +302,10 @@ impl<T: Real> DEonHair<T> {
                 let nf = T::from_f64(n as f64);
                 let mut s = [T::ZERO; N];
                 for i in 0..n {
+                    // a batch stopped by Ctrl-C (its result is discarded)
+                    if i % 4096 == 4095 && crate::batch::stopped() {
+                        break;
+                    }
                     let h = T::TWO * (T::from_f64(i as f64) + self.h_offset) / nf - T::ONE;
                     let gamma = h.asin();
                     let c = gamma.cos();

@@ -174,8 +174,8 @@ pub fn run_polling<R: Send, G>(
 /// small takes well under the 50 ms a Ctrl-C may wait anyway.
 const INTERRUPTIBLE_FROM: usize = 1 << 16;
 
-/// Runs `f` (a batch of `len` values) with the GIL released; for large
-/// batches on a worker thread while this one checks for Ctrl-C every
+/// Runs `f` (a batch of `len` values, or of that much work) with the GIL
+/// released; for large batches on a worker thread while this one checks for Ctrl-C every
 /// 50 ms ([`run_polling`]). On Ctrl-C the batch loops stop at their next
 /// chunk ([`crate::batch::StopBatches`]) and the signal's exception
 /// (normally `KeyboardInterrupt`) is raised; a batch cut short by a stop
@@ -208,8 +208,20 @@ pub fn compute<'py, T: Float>(
     len: usize,
     f: impl FnOnce(&mut [T]) + Send,
 ) -> PyResult<Bound<'py, PyAny>> {
+    compute_costing(py, len, len, f)
+}
+
+/// [`compute`] for a model whose values cost about `work` cheap ones in
+/// all (DEonHair: a value can take a second at 2^20 offsets), so that a
+/// small but slow batch polls for Ctrl-C too.
+pub fn compute_costing<'py, T: Float>(
+    py: Python<'py>,
+    len: usize,
+    work: usize,
+    f: impl FnOnce(&mut [T]) + Send,
+) -> PyResult<Bound<'py, PyAny>> {
     let mut out = zeroed::<T>(len, &format!("output array of {len} values"))?;
-    let out = interruptible(py, len, move || {
+    let out = interruptible(py, work, move || {
         f(&mut out);
         out
     })?;

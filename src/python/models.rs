@@ -4,8 +4,8 @@
 //! `python/hairshade/{chiang,karis,deon}.py`.
 
 use super::convert::{
-    by_name, compute, entries, interruptible, pairs, to_numpy, value_error, with_floats,
-    without_gil, zeroed, Float, Floats,
+    by_name, compute, compute_costing, entries, interruptible, pairs, to_numpy, value_error,
+    with_floats, without_gil, zeroed, Float, Floats,
 };
 use crate::batch::{
     chiang_eval, deon_eval, dir_at, karis_eval, karis_eval_env, map_pairs_rgb, map_pairs_scalar,
@@ -539,7 +539,12 @@ impl PyDEonHair {
         with_floats!(self.m, (l, v, t) => {
             let n = entries(&[(l, 3, "L"), (v, 3, "V"), (t, 3, "T")])?;
             let w = if lobes { 9 } else { 3 };
-            compute(py, w * n, |o| deon_eval(m, l, v, t, lobes, o))
+            // every offset of every pair counted: a converged pair (about
+            // 1 ms) or 2^20 offsets take as long as thousands of cheap values
+            let per_pair = m.h_samples().map_or(1 << 16, |h| h as usize);
+            compute_costing(py, w * n, n.saturating_mul(per_pair), |o| {
+                deon_eval(m, l, v, t, lobes, o)
+            })
         })
     }
 }

@@ -95,12 +95,8 @@ pub struct Bounds {
 /// The bounding sphere of the scene's bounding box (strands with their
 /// radii, cards, meshes, spheres); the unit sphere when nothing is finite.
 pub fn scene_bounds(scene: &Scene) -> Bounds {
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    for (p, r) in scene.strands.points.iter().zip(&scene.strands.radii) {
-        lo = lo.min(*p - Vec3::splat(*r));
-        hi = hi.max(*p + Vec3::splat(*r));
-    }
+    let (mut lo, mut hi) = hair_box(&[&scene.strands])
+        .unwrap_or((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)));
     for c in scene
         .cards
         .corners
@@ -126,29 +122,93 @@ pub fn scene_bounds(scene: &Scene) -> Bounds {
     }
 }
 
+/// How far from the hair's centre (the per-axis median of its vertices) a
+/// vertex may lie, in median distances from it, and still count in the
+/// hair's box. On the generated and dense heads the farthest vertex lies
+/// at 1.5-3 median distances (a long strand's tip hanging below the
+/// shoulders a few); a stray strand 1e5 or 1e18 away stretched the shadow
+/// maps, density grids and the traced grid over it, and every shadow went
+/// wrong.
+pub const OUTLIER_DISTANCE: f32 = 64.0;
+
+/// The box of the vertices of `strands`, each grown by its radius, leaving
+/// out non-finite vertices and those beyond [`OUTLIER_DISTANCE`] median
+/// distances from the hair's centre (the renderer still draws them; shadow
+/// maps and grids do not reach them, so they cast no shadows there). None
+/// without a finite vertex.
+pub fn hair_box(strands: &[&Strands]) -> Option<(Vec3, Vec3)> {
+    robust_box(
+        strands
+            .iter()
+            .flat_map(|st| st.points.iter().copied().zip(st.radii.iter().copied()))
+            .collect(),
+    )
+}
+
+/// [`hair_box`] of points with radii.
+pub fn robust_box(mut pts: Vec<(Vec3, f32)>) -> Option<(Vec3, Vec3)> {
+    pts.retain(|(p, r)| p.is_finite() && r.is_finite());
+    if pts.is_empty() {
+        return None;
+    }
+    let median = |mut v: Vec<f32>| {
+        let k = (v.len() - 1) / 2;
+        *v.select_nth_unstable_by(k, f32::total_cmp).1
+    };
+    let c = Vec3::new(
+        median(pts.iter().map(|e| e.0.x).collect()),
+        median(pts.iter().map(|e| e.0.y).collect()),
+        median(pts.iter().map(|e| e.0.z).collect()),
+    );
+    let spread = median(pts.iter().map(|e| (e.0 - c).length()).collect());
+    let limit = if spread > 0.0 {
+        OUTLIER_DISTANCE * spread
+    } else {
+        f32::INFINITY
+    };
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for (p, r) in pts {
+        if (p - c).length() <= limit {
+            lo = lo.min(p - Vec3::splat(r));
+            hi = hi.max(p + Vec3::splat(r));
+        }
+    }
+    Some((lo, hi))
+}
+
 /// The distance the near plane is a small fraction of ([`View::new`]):
-/// the far side of the hair (strands and cards) as seen from the camera,
-/// so a large floor or ground sphere does not push the near plane past
-/// nearby hair; without hair, the nearer of the camera's target and the
-/// far side of the scene (`bounds`). The far side is the 99th percentile
-/// of the hair's distances, not their largest, so that a stray strand far
-/// away (one at 1e5 took the near plane past the rest of the hair, which
-/// then vanished) leaves it where the hair is.
+/// the median distance of the hair (strand segments' nearest points and
+/// card corners) from the camera, so
+/// a large floor or ground sphere does not push the near plane past nearby
+/// hair; without hair, the nearer of the camera's target and the far side
+/// of the scene (`bounds`). A median, not the far side: a stray strand far
+/// away (one at 1e5, or one from x = -1e18 to 1e18 among four vertices)
+/// took the near plane past the rest of the hair, which then vanished.
 pub fn near_reference(scene: &Scene, bounds: Bounds) -> f32 {
     let eye = scene.camera.position;
     let st = &scene.strands;
-    let mut hair: Vec<f32> = st
-        .points
-        .iter()
-        .zip(&st.radii)
-        .map(|(p, r)| (*p - eye).length() + r)
+    // per segment, the distance of its nearest point (a long segment's
+    // ends can both lie far from where it passes the camera)
+    let segment = |s: usize| {
+        let (a, b) = (st.points[s], st.points[s + 1]);
+        let u = b - a;
+        let t = if u.length_squared() > 0.0 {
+            ((eye - a).dot(u) / u.length_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (a + u * t - eye).length() + st.radii[s].max(st.radii[s + 1])
+    };
+    let mut hair: Vec<f32> = (0..st.strand_count())
+        .flat_map(|k| st.offsets[k] as usize..(st.offsets[k + 1] as usize).saturating_sub(1))
+        .map(segment)
         .chain(scene.cards.corners.iter().map(|p| (*p - eye).length()))
         .filter(|d| d.is_finite())
         .collect();
     let far = if hair.is_empty() {
         None
     } else {
-        let k = (hair.len() - 1) * 99 / 100;
+        let k = (hair.len() - 1) / 2;
         Some(*hair.select_nth_unstable_by(k, f32::total_cmp).1)
     };
     match far {
@@ -219,6 +279,20 @@ pub fn project_segments(st: &Strands, view: &View) -> Vec<Segment> {
                     vb = view.to_view(pb);
                 }
             }
+            // Clip to a guard band twice the view's width and height (one
+            // million times the view's size across, a segment's pixel
+            // coordinates lost the line in float32: a strand from x = -1e18
+            // to 1e18 drew nothing); a segment wholly outside keeps its ends
+            // (it draws nothing either way).
+            if let Some(([s0, s1], [qa, qb])) = guard_band(view, pa, pb, ra.max(rb)) {
+                if s0 > 0.0 || s1 < 1.0 {
+                    let lerp = |x: f32, y: f32, s: f64| (x as f64 + (y - x) as f64 * s) as f32;
+                    (ra, rb) = (lerp(ra, rb, s0), lerp(ra, rb, s1));
+                    (ta, tb) = (lerp(ta, tb, s0), lerp(ta, tb, s1));
+                    (pa, pb) = (qa, qb);
+                    (va, vb) = (view.to_view(pa), view.to_view(pb));
+                }
+            }
             push(Segment {
                 a: view.project2(va),
                 b: view.project2(vb),
@@ -241,6 +315,62 @@ pub fn project_segments(st: &Strands, view: &View) -> Vec<Segment> {
         }
     };
     crate::threads::concat_ordered(st.strand_count(), count, project)
+}
+
+/// The part `[s0, s1]` of the world segment `pa`–`pb` (in front of the
+/// near plane) inside the guard band `|x|, |y| ≤ 2 z tan(half angle) +
+/// margin` of the view, and its ends, or None when no part is. In float64
+/// about the segment's point nearest the eye, so that the ends of a segment
+/// 1e18 long land near the band (their error runs along the segment).
+fn guard_band(view: &View, pa: Vec3, pb: Vec3, margin: f32) -> Option<([f64; 2], [Vec3; 2])> {
+    use glam::DVec3;
+    let eye = view.eye.as_dvec3();
+    let axes = [view.right.as_dvec3(), view.up.as_dvec3()];
+    let fwd = view.forward.as_dvec3();
+    let da = pa.as_dvec3() - eye;
+    let u = pb.as_dvec3() - pa.as_dvec3();
+    let t_c = if u.length_squared() > 0.0 {
+        (-da.dot(u) / u.length_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let c = da + u * t_c;
+    let g = [
+        view.width as f64 / view.focal as f64,
+        view.height as f64 / view.focal as f64,
+    ];
+    // σ about t_c, within the segment
+    let (mut s0, mut s1) = (-t_c, 1.0 - t_c);
+    let (mut clip0, mut clip1) = (false, false);
+    // each plane: g z + margin ∓ x ≥ 0, linear in σ: f(c) + σ L(u)
+    for k in 0..2 {
+        for sign in [1.0f64, -1.0] {
+            let lin = |d: DVec3| g[k] * d.dot(fwd) - sign * d.dot(axes[k]);
+            let (f0, fu) = (lin(c) + margin as f64, lin(u));
+            if fu == 0.0 {
+                if f0 < 0.0 {
+                    return None;
+                }
+            } else if fu > 0.0 && -f0 / fu > s0 {
+                (s0, clip0) = (-f0 / fu, true);
+            } else if fu < 0.0 && -f0 / fu < s1 {
+                (s1, clip1) = (-f0 / fu, true);
+            }
+        }
+    }
+    (s0 < s1).then(|| {
+        let end = |s: f64| (eye + c + u * s).as_vec3();
+        (
+            [
+                if clip0 { t_c + s0 } else { 0.0 },
+                if clip1 { t_c + s1 } else { 1.0 },
+            ],
+            [
+                if clip0 { end(s0) } else { pa },
+                if clip1 { end(s1) } else { pb },
+            ],
+        )
+    })
 }
 
 /// Radiance at the segments' ends from the per-vertex radiance (linear

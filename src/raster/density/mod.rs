@@ -82,15 +82,7 @@ pub struct FiberCount {
 /// `resolution` (voxels along the longest side of the bounding box of the
 /// strands and card fibers, padded by two voxels); None without hair.
 pub fn grid_frame(scene: &Scene, resolution: usize) -> Option<(Vec3, f32, [usize; 3])> {
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for st in [&scene.strands, &scene.cards.fibers] {
-        for (p, r) in st.points.iter().zip(&st.radii) {
-            if p.is_finite() && r.is_finite() {
-                lo = lo.min(*p - Vec3::splat(*r));
-                hi = hi.max(*p + Vec3::splat(*r));
-            }
-        }
-    }
+    let (lo, hi) = crate::raster::setup::hair_box(&[&scene.strands, &scene.cards.fibers])?;
     if !(lo.is_finite() && hi.is_finite()) {
         return None;
     }
