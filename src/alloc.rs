@@ -6,6 +6,8 @@
 pub struct AllocError {
     pub what: String,
     pub bytes: usize,
+    /// The bytes the system said were available, when that was the reason.
+    pub available: Option<u64>,
 }
 
 impl std::fmt::Display for AllocError {
@@ -16,7 +18,15 @@ impl std::fmt::Display for AllocError {
             self.what,
             self.bytes,
             self.bytes as f64 / (1u64 << 30) as f64
-        )
+        )?;
+        if let Some(a) = self.available {
+            write!(
+                f,
+                ", more than the {:.2} GiB available",
+                a as f64 / (1u64 << 30) as f64
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -27,12 +37,32 @@ pub fn try_zeroed<T: Clone + Default>(len: usize, what: &str) -> Result<Vec<T>, 
     try_filled(len, T::default(), what)
 }
 
-/// `len` copies of `value`, or an [`AllocError`] naming `what`.
+/// Requests from this size on are checked against the memory the system
+/// says is available before they are made: the system may grant a
+/// reservation it cannot back, and filling it then gets the process killed
+/// instead of an error.
+const CHECK_FROM: usize = 64 << 20;
+
+/// `len` copies of `value`, or an [`AllocError`] naming `what` (also when
+/// it is more than the memory available, [`crate::raster::memory::available_bytes`]).
 pub fn try_filled<T: Clone>(len: usize, value: T, what: &str) -> Result<Vec<T>, AllocError> {
+    let bytes = len.saturating_mul(std::mem::size_of::<T>());
+    if bytes >= CHECK_FROM {
+        if let Some(a) = crate::raster::memory::available_bytes() {
+            if bytes as u64 > a {
+                return Err(AllocError {
+                    what: what.to_string(),
+                    bytes,
+                    available: Some(a),
+                });
+            }
+        }
+    }
     let mut v = Vec::new();
     v.try_reserve_exact(len).map_err(|_| AllocError {
         what: what.to_string(),
-        bytes: len.saturating_mul(std::mem::size_of::<T>()),
+        bytes,
+        available: None,
     })?;
     v.resize(len, value);
     Ok(v)

@@ -233,7 +233,10 @@ def test_03_huge_allocations_raise_memory_error(tmp_path):
     scene(tmp_path, strands, name="opacity.json", lights=lights,
           render={"shadow_model": "opacity", "shadow_map_size": 8192})
     scene(tmp_path, {"generate": {"kind": "head", "strands": 2_000_000, "segments": 256}}, name="gen.json")
+    # 1.6 TB at the measured 84 B a baked vertex (grew for minutes before)
+    scene(tmp_path, {"generate_cards": {"cards": 200_000, "alpha": {"bake": {"fibers": 4096}}}}, name="cards.json")
     r = run_cases({
+        "cards": f"hs.Scene.load({str(tmp_path / 'cards.json')!r})",
         "eval": """
             wo = np.zeros((60_000_000, 3)); wo[:, 2] = 1
             hs.ChiangHair().eval(np.array([1.0, 0, 0]), wo)""",
@@ -242,10 +245,13 @@ def test_03_huge_allocations_raise_memory_error(tmp_path):
         "generate": f"hs.Scene.load({str(tmp_path / 'gen.json')!r})",
         "still_works": "result = float(hs.ChiangHair().eval([0, 0.2, 1.0], [0.3, -0.2, 0.9]).sum() > 0)",
     }, cap=5 * GIB // 2)
-    expect(r, "eval", "MemoryError", "output array of 180000000 values")
+    # refused against the memory available before it is reserved (the
+    # system may grant a reservation it cannot back: filled, it was killed)
+    expect(r, "eval", "MemoryError", "output array of 180000000 values", "GiB available")
     expect(r, "render_16k", "MemoryError", "image (framebuffer and tiles)", "GiB available")
     expect(r, "opacity_8k", "MemoryError", "shadow maps", "shadow_map_size")
     expect(r, "generate", ("MemoryError", "SceneError"), "2000000 strands of 256 segments", "GiB")
+    expect(r, "cards", "MemoryError", "hair.generate_cards: 200000 cards, 819200000 baked fibers", "GiB available")
     assert r["still_works"] == {"ok": "1.0"}
 
 
@@ -933,3 +939,52 @@ def test_27_a_strand_far_longer_than_the_view_draws_its_visible_part(half_length
     # the vertical strand's pixels where the long one does not cross it
     mask = shown(alone) & ~shown(long)
     assert mask.sum() > 20 and np.allclose(both[mask], alone[mask], rtol=1e-5, atol=0)
+
+
+def test_28_obj_files_are_bounded_by_their_parsing_cost(tmp_path):
+    """An OBJ is parsed line by line at about 11 bytes of memory per byte
+    and 0.07 s per megabyte of file (scene.MAX_OBJ_BYTES): one over
+    64 MiB is refused by name before it is parsed (a 250 MB file parsed
+    for minutes through gigabytes), and under a memory cap a file that
+    fits the size limit but not the memory is a MemoryError naming it."""
+    big = tmp_path / "big.obj"
+    with open(big, "wb") as f:
+        f.write(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+        f.write(b"# padding\n" * ((64 << 20) // 10 + 1))
+    scene(tmp_path, {"strands": [{"points": [[0, 0, 0], [0, 1, 0]]}]}, name="obj.json",
+          meshes=[{"type": "obj", "file": "big.obj"}])
+    r = run_cases({"big": f"hs.Scene.load({str(tmp_path / 'obj.json')!r})"}, timeout=30)
+    expect(r, "big", "SceneError", "meshes[0].file", "big.obj", f"larger than the limit of {64 << 20} bytes")
+    mid = tmp_path / "mid.obj"
+    with open(mid, "wb") as f:
+        f.write(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+        f.write(b"# padding\n" * ((40 << 20) // 10))
+    scene(tmp_path, {"strands": [{"points": [[0, 0, 0], [0, 1, 0]]}]}, name="mid.json",
+          meshes=[{"type": "obj", "file": "mid.obj"}])
+    # 0.5 GiB cap: about 0.3 GiB left after the interpreter, less than the 0.48 GB estimated
+    r = run_cases({"mid": f"hs.Scene.load({str(tmp_path / 'mid.json')!r})"}, timeout=60, cap=GIB // 2)
+    expect(r, "mid", "MemoryError", "meshes[0].file", "mid.obj", "GiB available")
+
+
+def test_29_a_link_swapped_in_after_the_folder_check_is_not_followed(tmp_path):
+    """A file a scene names is checked to lie inside the scene's folder
+    (links resolved) and was then opened by its name: a link swapped in
+    between led outside. The resolved path is what is opened, and its last
+    part must not be a link: the swap is refused, a link inside the folder
+    still reads."""
+    from hairshade.scene import _Ctx, read_text
+
+    folder, outside = tmp_path / "scene", tmp_path / "secret.txt"
+    folder.mkdir()
+    outside.write_text("0 0 0 0 1 0\n")
+    (folder / "real.txt").write_text("0 0 0 0.01\n0 1 0 0.01\n")
+    (folder / "link.txt").symlink_to(folder / "real.txt")
+    p = scene(folder, {"file": "link.txt"})
+    assert hs.Scene.load(p).strand_count == 1
+    ctx = _Ctx(str(p), str(folder))
+    checked = ctx.file("link.txt", "hair.file")
+    assert checked == str((folder / "real.txt").resolve())
+    (folder / "real.txt").unlink()
+    (folder / "real.txt").symlink_to(outside)  # the swap, after the check
+    with pytest.raises(hs.SceneError, match=r"hair.file: .*real.txt: cannot read"):
+        read_text(checked, 1 << 20, lambda msg: hs.SceneError(f"hair.file: {checked}: {msg}"), ctx.nofollow)

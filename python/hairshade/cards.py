@@ -143,7 +143,7 @@ def load_alpha(spec: dict[str, Any], base_dir: str, resolve: Callable[[str], str
             raise ValueError(f"image: {path}: not a regular file")
         if st.st_size > MAX_IMAGE_BYTES:
             raise ValueError(f"image: {path}: larger than the limit of {MAX_IMAGE_BYTES} bytes")
-        if path.lower().endswith(".exr"):
+        if name.lower().endswith(".exr"):
             w, h, d = _native.read_exr(path)
             alpha = d.reshape(h, w, 3).mean(axis=2).astype(np.float32)
         else:

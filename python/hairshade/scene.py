@@ -72,7 +72,8 @@ A scene file::
   must lie inside it (after following links), unless the scene is loaded
   with ``allow_outside=True`` (``hairshade render --allow-outside``).
   Only regular files are read: text files up to ``MAX_TEXT_BYTES``
-  (256 MiB), images up to ``MAX_IMAGE_BYTES`` (1 GiB). Errors quote a
+  (256 MiB; OBJ files up to ``MAX_OBJ_BYTES``, 64 MiB), images up to
+  ``MAX_IMAGE_BYTES`` (1 GiB). Errors quote a
   file's content only when it is printable text.
 """
 
@@ -101,6 +102,13 @@ VERSION = 1
 MAX_MAGNITUDE = 1e18
 #: Largest scene, strand or OBJ file read.
 MAX_TEXT_BYTES = 256 << 20
+#: Largest OBJ file read: parsed line by line at 0.074 s and 11 MB of peak
+#: memory per MB of file (a 10 MB file of 200 000 triangles: 0.74 s, 107
+#: MB), so 64 MiB takes about 5 s and 0.7 GB; a 250 MB file parsed for
+#: minutes through gigabytes.
+MAX_OBJ_BYTES = 64 << 20
+#: Peak bytes of parsing an OBJ file per byte of it (measured 10.7, above).
+OBJ_BYTES_PER_BYTE = 12
 #: Largest image file read (card alpha textures).
 MAX_IMAGE_BYTES = 1 << 30
 
@@ -297,15 +305,20 @@ def show(line: str | bytes, limit: int = 80) -> str:
     return repr(line if len(line) <= limit else line[:limit] + "...")
 
 
-def read_bytes(path: str, limit: int, error: Any) -> bytes:
+def read_bytes(path: str, limit: int, error: Any, nofollow: bool = False) -> bytes:
     """The content of the regular file ``path`` (at most ``limit`` bytes);
-    ``error(message)`` builds the exception raised otherwise. Opened without
-    blocking (a FIFO or a device would otherwise wait for a writer before
-    the check that refuses it)."""
+    ``error(message)`` builds the exception raised otherwise. Opened once,
+    without blocking (a FIFO or a device would otherwise wait for a writer
+    before the check that refuses it); with ``nofollow``, a path whose last
+    part is a link is refused (a path resolved and checked before, which a
+    link swapped in since would redirect)."""
     if "\x00" in path:
         raise error("the file name contains a NUL character")
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+    if nofollow:
+        flags |= getattr(os, "O_NOFOLLOW", 0)
     try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+        fd = os.open(path, flags)
         with os.fdopen(fd, "rb") as f:
             st = os.fstat(f.fileno())
             if not stat.S_ISREG(st.st_mode):
@@ -322,10 +335,10 @@ def read_bytes(path: str, limit: int, error: Any) -> bytes:
     return data
 
 
-def read_text(path: str, limit: int, error: Any) -> str:
+def read_text(path: str, limit: int, error: Any, nofollow: bool = False) -> str:
     """:func:`read_bytes` decoded as UTF-8 (an error names the offset of
     the first byte that is not)."""
-    data = read_bytes(path, limit, error)
+    data = read_bytes(path, limit, error, nofollow)
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as e:
@@ -356,7 +369,10 @@ class _Ctx:
 
     def file(self, name: Any, path: str) -> str:
         """The file a scene field names: relative to the scene's folder and
-        inside it (after following links) unless outside files are allowed."""
+        inside it (after following links) unless outside files are allowed.
+        Inside, the path returned is the resolved one, read with
+        ``nofollow`` (``self.nofollow``): a link swapped in after the check
+        is refused rather than followed outside."""
         if not isinstance(name, str) or not name:
             self.fail(path, f"expected a file name, got {name!r:.80}")
         full = os.path.join(self.base_dir, name)
@@ -366,7 +382,12 @@ class _Ctx:
             if os.path.commonpath([base, real]) != base:
                 self.fail(path, f"{name}: outside the scene's folder {base} "
                                 "(load with allow_outside=True, or --allow-outside, to read it)")
+            return real
         return full
+
+    @property
+    def nofollow(self) -> bool:
+        return not self.allow_outside
 
     def integer(self, v: Any, path: str, lo: int, hi: int) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
@@ -614,7 +635,7 @@ def _parse(d: Any, base_dir: str, source: str,
         pts.append(v)
         rads.append(r)
     if "file" in hair:
-        fpts, frads = _read_hair_file(c.file(hair["file"], "hair.file"), c)
+        fpts, frads = _read_hair_file(c.file(hair["file"], "hair.file"), c, hair["file"])
         pts += fpts
         rads += frads
     if "generate" in hair:
@@ -679,7 +700,14 @@ def _parse(d: Any, base_dir: str, source: str,
 def _read_obj(path: str, c: _Ctx, field_path: str) -> np.ndarray:
     """Triangles (T, 3, 3) of an OBJ file's `v` and `f` lines (polygons fan-
     triangulated; texture/normal indices and everything else ignored)."""
-    lines = read_text(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{c.source}: {field_path}: {path}: {msg}")).splitlines()
+    from . import _memory
+
+    text = read_text(path, MAX_OBJ_BYTES, lambda msg: SceneError(f"{c.source}: {field_path}: {path}: {msg}"),
+                     c.nofollow)
+    _memory.check(len(text) * OBJ_BYTES_PER_BYTE, f"{c.source}: {field_path}: {path}",
+                  "simplify the mesh")
+    lines = text.splitlines()
+    del text
     verts: list[list[float]] = []
     tris: list[list[int]] = []
     for n, line in enumerate(lines, 1):
@@ -708,6 +736,34 @@ def _read_obj(path: str, c: _Ctx, field_path: str) -> np.ndarray:
     return np.asarray(verts, dtype=np.float32)[np.asarray(tris)]
 
 
+#: Peak bytes of loading a baked card's fiber vertex (24 per fiber):
+#: 83.8 measured for 2000 cards x 256 fibers, 82.7 for 200 x 2048 (peak
+#: RSS of Scene.from_dict over the vertices), rounded up.
+BYTES_PER_BAKED_VERTEX = 96
+
+
+def _baked_fibers(card: Any) -> int:
+    """The baked fibers a card (or a ``generate_cards`` spec) asks for per
+    card; 0 for anything the checks that follow will refuse."""
+    alpha = card.get("alpha", {"bake": {}}) if isinstance(card, dict) else None
+    bake = alpha.get("bake") if isinstance(alpha, dict) else None
+    n = bake.get("fibers", 24) if isinstance(bake, dict) else 0
+    return n if isinstance(n, int) and not isinstance(n, bool) and 0 < n <= 4096 else 0
+
+
+def _check_baked_memory(where: str, cards: int, fibers: int) -> None:
+    """MemoryError naming ``where`` before ``fibers`` baked fibers of
+    ``cards`` cards are built, when they would need more memory than is
+    available (200 000 cards of 4096 fibers grew for minutes towards
+    1.5 TB)."""
+    from .cards import card_fiber_strands
+    from . import _memory
+
+    samples = card_fiber_strands.__defaults__[-1]
+    _memory.check(fibers * samples * BYTES_PER_BAKED_VERTEX, f"{where}: {cards} cards, {fibers} baked fibers",
+                  "lower cards or bake.fibers")
+
+
 def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any] | None:
     """Cards as flat arrays for the renderer, or None."""
     from .cards import card_fiber_strands, card_quads, head_cards, load_alpha
@@ -718,6 +774,9 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
     entries = [(f"hair.cards[{i}]", x) for i, x in enumerate(raw)]
     if "generate_cards" in hair:
         spec = c.obj(hair["generate_cards"], "hair.generate_cards")
+        count = spec.get("cards", 400)
+        if isinstance(count, int) and not isinstance(count, bool) and count > 0:
+            _check_baked_memory("hair.generate_cards", count, count * _baked_fibers(spec))
         try:
             gen = head_cards(spec)
         except (TypeError, ValueError) as e:
@@ -725,6 +784,7 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         entries += [(f"hair.generate_cards (card {i})", x) for i, x in enumerate(gen)]
     if not entries:
         return None
+    _check_baked_memory("hair.cards", len(entries), sum(_baked_fibers(x) for _, x in entries))
     corners, uvs, tangents, tex_index = [], [], [], []
     fiber_pts: list[np.ndarray] = []
     fiber_rads: list[np.ndarray] = []
@@ -788,15 +848,17 @@ def _flat_strands(pts: list[np.ndarray], rads: list[np.ndarray]) -> tuple[np.nda
     return points, radii, offsets
 
 
-def _read_hair_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:
+def _read_hair_file(path: str, c: _Ctx, name: str) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """A hair file's strands as lists of (points, radii): ``.hair``
-    (binary, :mod:`hairshade.hairfile`) or the text format."""
-    if not path.lower().endswith(".hair"):
+    (binary, :mod:`hairshade.hairfile`) or the text format, by the extension
+    of the ``name`` the scene gave (``path`` may be its resolved target)."""
+    if not name.lower().endswith(".hair"):
         return _read_strand_file(path, c)
     from .hairfile import parse_hair
 
     # A regular file within the size limit, as every file a scene names.
-    data = read_bytes(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{c.source}: hair.file: {path}: {msg}"))
+    data = read_bytes(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{c.source}: hair.file: {path}: {msg}"),
+                      c.nofollow)
     try:
         p, r, o = parse_hair(data, path)
     except ValueError as e:
@@ -809,7 +871,8 @@ def _read_hair_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarr
 
 def _read_strand_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """`x y z r` per line, blank lines between strands, `#` comments."""
-    lines = read_text(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{c.source}: hair.file: {path}: {msg}")).splitlines()
+    lines = read_text(path, MAX_TEXT_BYTES, lambda msg: SceneError(f"{c.source}: hair.file: {path}: {msg}"),
+                      c.nofollow).splitlines()
     pts: list[np.ndarray] = []
     rads: list[np.ndarray] = []
     cur: list[list[float]] = []
