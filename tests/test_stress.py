@@ -174,6 +174,17 @@ def test_08_fuzz_file_loaders(tmp_path):
     _fuzz("fuzz_files.py", "corpus_files", 15, tmp_path, "-timeout=20")
 
 
+@pytest.mark.slow  # 15 s of fuzzing by design, ~20 s with start-up
+def test_09_fuzz_private_native_entry_points(tmp_path):
+    """The atheris target of `hairshade._native` (the renderer with a
+    scene dict mutated past the Python checks, the models' batch methods,
+    image readers and writers, special functions) for 15 s: no Rust panic
+    crossing into Python, no exception but ValueError, TypeError,
+    OverflowError, MemoryError or OSError, no crash or hang (1.4 million
+    runs in a 60 s session found nothing)."""
+    _fuzz("fuzz_native.py", "corpus_native", 15, tmp_path, "-timeout=20", "-rss_limit_mb=4096")
+
+
 def test_07_a_million_sub_pixel_strands_in_bounded_memory():
     """One million one-segment strands of radius 1e-4 (a hundredth of a
     pixel) over a 320x180 view, a shadowed light and an environment: no NaN,
