@@ -123,17 +123,17 @@ pub fn scene_bounds(scene: &Scene) -> Bounds {
 }
 
 /// How far from the hair's centre (the per-axis median of its vertices) a
-/// vertex may lie, in median distances from it, and still count in the
-/// hair's box. On the generated and dense heads the farthest vertex lies
-/// at 1.5-3 median distances (a long strand's tip hanging below the
-/// shoulders a few); a stray strand 1e5 or 1e18 away stretched the shadow
-/// maps, density grids and the traced grid over it, and every shadow went
-/// wrong.
-pub const OUTLIER_DISTANCE: f32 = 64.0;
+/// vertex may lie, in units of the 90th percentile of the vertices'
+/// distances from it, and still count in the hair's box. On the dense,
+/// held-out and demo heads the farthest vertex lies at 1.33-1.51 of that
+/// percentile; a stray strand 1e5 or 1e18 away stretched the shadow maps,
+/// density grids and the traced grid over it, and every shadow went wrong.
+/// Hair of which more than a tenth lies far away keeps all of it.
+pub const OUTLIER_DISTANCE: f32 = 16.0;
 
 /// The box of the vertices of `strands`, each grown by its radius, leaving
-/// out non-finite vertices and those beyond [`OUTLIER_DISTANCE`] median
-/// distances from the hair's centre (the renderer still draws them; shadow
+/// out non-finite vertices and those beyond [`OUTLIER_DISTANCE`] times the
+/// 90th-percentile distance from the hair's centre (the renderer still draws them; shadow
 /// maps and grids do not reach them, so they cast no shadows there). None
 /// without a finite vertex.
 pub fn hair_box(strands: &[&Strands]) -> Option<(Vec3, Vec3)> {
@@ -151,16 +151,27 @@ pub fn robust_box(mut pts: Vec<(Vec3, f32)>) -> Option<(Vec3, Vec3)> {
     if pts.is_empty() {
         return None;
     }
+    // the k-th smallest, and the median (the mean of the two middle values
+    // of an even count: the lower one alone put the centre of two strands
+    // at one of their ends)
+    let nth = |v: &mut Vec<f32>, k: usize| *v.select_nth_unstable_by(k, f32::total_cmp).1;
     let median = |mut v: Vec<f32>| {
-        let k = (v.len() - 1) / 2;
-        *v.select_nth_unstable_by(k, f32::total_cmp).1
+        let n = v.len();
+        let lo = nth(&mut v, (n - 1) / 2);
+        if n % 2 == 1 {
+            lo
+        } else {
+            0.5 * (lo + nth(&mut v, n / 2))
+        }
     };
     let c = Vec3::new(
         median(pts.iter().map(|e| e.0.x).collect()),
         median(pts.iter().map(|e| e.0.y).collect()),
         median(pts.iter().map(|e| e.0.z).collect()),
     );
-    let spread = median(pts.iter().map(|e| (e.0 - c).length()).collect());
+    let mut d: Vec<f32> = pts.iter().map(|e| (e.0 - c).length()).collect();
+    let n = d.len();
+    let spread = nth(&mut d, (n - 1) * 9 / 10);
     let limit = if spread > 0.0 {
         OUTLIER_DISTANCE * spread
     } else {
