@@ -25,6 +25,10 @@ pub struct SegmentGrid {
     block_dims: [usize; 3],
 }
 
+/// The most (cell, segment) entries the grid's cell boxes may hold in all
+/// (8 bytes each while the grid is built: 512 MiB).
+const MAX_ENTRIES: usize = 1 << 26;
+
 /// Cells a side of the blocks the walk skips when empty.
 const BLOCK: usize = 4;
 
@@ -135,7 +139,29 @@ impl SegmentGrid {
         // head, balanced, split shading: 1.31 s against 1.34-1.40 s at
         // 0.35 and 1.39-1.45 s at 0.5; 97 bytes a segment against 60 at
         // 0.5).
-        let cell = (0.25 * median_len).max(extent / 256.0).max(1e-6);
+        let mut cell = (0.25 * median_len).max(extent / 256.0).max(1e-6);
+        // Fibers far thicker than their segments are long (a radius of 4 on
+        // segments 0.05 long) listed each capsule in millions of cells: 11 GB
+        // and 40 s for five strands. The cells grow until the capsules'
+        // boxes cover at most MAX_ENTRIES of them in all.
+        let entries = |cell: f32| -> f64 {
+            caps.iter()
+                .map(|c| {
+                    let ext = c.u.abs() + Vec3::splat(2.0 * c.r2.sqrt());
+                    ext.to_array()
+                        .iter()
+                        .map(|e| ((e / cell).min(256.0) as f64 + 2.0).min(257.0))
+                        .product::<f64>()
+                })
+                .sum()
+        };
+        for _ in 0..16 {
+            let n = entries(cell);
+            if n <= MAX_ENTRIES as f64 {
+                break;
+            }
+            cell *= ((n / MAX_ENTRIES as f64).cbrt() as f32).max(1.25);
+        }
         let dims = ((hi - lo) / cell)
             .to_array()
             .map(|e| (e.ceil() as usize).max(1));
