@@ -195,10 +195,12 @@ class Scene:
             if sh.shape != (9, 3) or not np.all(np.abs(sh) <= MAX_MAGNITUDE):
                 c.fail("environment_sh", f"expected 9 x 3 finite numbers of magnitude at most {MAX_MAGNITUDE:g}, "
                                          f"got shape {sh.shape}")
-        try:
-            _strand_arrays(self.points, self.radii, self.offsets)
-        except SceneError as e:
-            raise SceneError(f"{c.source}: {e}") from None
+        if not _strand_arrays_plausible(self.points, self.radii, self.offsets):
+            # the full check, for the message naming the first bad entry
+            try:
+                _strand_arrays(self.points, self.radii, self.offsets)
+            except SceneError as e:
+                raise SceneError(f"{c.source}: {e}") from None
         if self.material != self._material_built:
             self._build_hair()
 
@@ -466,6 +468,27 @@ def _strand_arrays(points: npt.ArrayLike, radii: npt.ArrayLike, offsets: npt.Arr
     if msg:
         raise SceneError(msg)
     return p, r, o
+
+
+def _strand_arrays_plausible(points: Any, radii: Any, offsets: Any) -> bool:
+    """Whether the strand arrays of a loaded scene pass :func:`_strand_arrays`
+    without a copy: float32 arrays of the right shapes whose largest
+    magnitude is within MAX_MAGNITUDE (NaN fails the comparison), radii
+    >= 0, offsets from 0 to len(points) by at least 2. A reduction per array
+    (the demo head's 425 000 points: under 1 ms, against 10 ms for the full
+    check on every render); False sends the arrays to the full check."""
+    p, r, o = points, radii, offsets
+    if not all(isinstance(a, np.ndarray) for a in (p, r, o)):
+        return False
+    if p.dtype != np.float32 or r.dtype != np.float32 or o.dtype.kind not in "iu":
+        return False
+    if p.ndim != 2 or p.shape[1] != 3 or r.shape != (len(p),) or o.ndim != 1 or len(o) < 1:
+        return False
+    if o[0] != 0 or o[-1] != len(p) or (len(o) > 1 and np.diff(o.astype(np.int64)).min() < 2):
+        return False
+    if len(p) == 0:
+        return True
+    return bool(np.abs(p).max() <= MAX_MAGNITUDE and r.min() >= 0 and r.max() <= MAX_MAGNITUDE)
 
 
 def _magnitude_error(p: np.ndarray, r: np.ndarray, points: str, radii: str) -> str | None:
