@@ -117,19 +117,200 @@ pub fn write_exr(path: &Path, width: usize, height: usize, data: &[f32]) -> Resu
     })
 }
 
-/// Reads the RGB channels of an EXR (A ignored) as row-major f32. The
-/// header is read first: an image over `max_pixels`, or declaring more
-/// than the file can hold, is refused before its pixels are allocated.
-pub fn read_exr(path: &Path, max_pixels: usize) -> Result<(usize, usize, Vec<f32>), ImageError> {
-    use exr::prelude::*;
-    let err = |e: &dyn std::fmt::Display| {
-        ImageError(
-            format!("{}: cannot read EXR: {e}", path.display()),
-            ImageErrorKind::Format,
+/// One layer of an EXR file: the channels that share a name prefix in one
+/// part. `name` joins the part's name and the prefix with `.`, or is the
+/// prefix alone when it already starts with the part's name (Blender's
+/// multilayer `ViewLayer.Combined` holds `ViewLayer.Combined.R`, ...); a
+/// plain RGB file has one layer named `""`. `channels` are the names after
+/// the prefix, in the file's order.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ExrLayer {
+    pub name: String,
+    pub channels: Vec<String>,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl ExrLayer {
+    /// `'name' (R, G, B, A; 640x360)`, as errors list a file's layers.
+    fn describe(&self) -> String {
+        format!(
+            "'{}' ({}; {}x{})",
+            self.name,
+            self.channels.join(", "),
+            self.width,
+            self.height
         )
+    }
+
+    /// How the layer's channels become RGB: the indices of R, G and B, or
+    /// one channel three times (a single-channel layer, read as grey).
+    fn rgb(&self) -> Option<[usize; 3]> {
+        let at = |c: &str| self.channels.iter().position(|n| n == c);
+        match (at("R"), at("G"), at("B")) {
+            (Some(r), Some(g), Some(b)) => Some([r, g, b]),
+            _ if self.channels.len() == 1 => Some([0; 3]),
+            _ => None,
+        }
+    }
+}
+
+/// `(layer, channel)` of a channel named `full` in a part named `part`:
+/// the prefix before the channel name's last `.`, joined to the part's name.
+fn split_channel(part: Option<&str>, full: &str) -> (String, String) {
+    let (prefix, short) = match full.rfind('.') {
+        Some(i) => (&full[..i], &full[i + 1..]),
+        None => ("", full),
     };
+    // Blender names a part "ViewLayer.Combined" and its channels
+    // "ViewLayer.Combined.R": a prefix that repeats the part's name is not
+    // joined to it again.
+    let name = match (part.filter(|p| !p.is_empty()), prefix.is_empty()) {
+        (Some(p), false) if prefix == p || prefix.starts_with(&format!("{p}.")) => {
+            prefix.to_string()
+        }
+        (Some(p), false) => format!("{p}.{prefix}"),
+        (Some(p), true) => p.to_string(),
+        (None, _) => prefix.to_string(),
+    };
+    (name, short.to_string())
+}
+
+fn exr_format_error(path: &Path, e: &dyn std::fmt::Display) -> ImageError {
+    ImageError(
+        format!("{}: cannot read EXR: {e}", path.display()),
+        ImageErrorKind::Format,
+    )
+}
+
+/// The layers of an EXR file's headers, in the file's order, and the
+/// header each comes from.
+fn layers_of(headers: &[exr::meta::header::Header]) -> Vec<(usize, ExrLayer)> {
+    let mut layers: Vec<(usize, ExrLayer)> = Vec::new();
+    for (part, header) in headers.iter().enumerate() {
+        let part_name = header
+            .own_attributes
+            .layer_name
+            .as_ref()
+            .map(|t| t.to_string());
+        for c in header.channels.list.iter() {
+            let (name, short) = split_channel(part_name.as_deref(), &c.name.to_string());
+            match layers
+                .iter_mut()
+                .find(|(p, l)| *p == part && l.name == name)
+            {
+                Some((_, l)) => l.channels.push(short),
+                None => layers.push((
+                    part,
+                    ExrLayer {
+                        name,
+                        channels: vec![short],
+                        width: header.layer_size.width(),
+                        height: header.layer_size.height(),
+                    },
+                )),
+            }
+        }
+    }
+    layers
+}
+
+/// The layers of the EXR file at `path` (its headers only are read).
+pub fn exr_layers(path: &Path) -> Result<Vec<ExrLayer>, ImageError> {
+    file_len(path, "EXR")?;
+    let meta =
+        exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_format_error(path, &e))?;
+    Ok(layers_of(&meta.headers)
+        .into_iter()
+        .map(|(_, l)| l)
+        .collect())
+}
+
+/// The layer `layer` names, or without a name the file's only layer, its
+/// unnamed RGB layer, its only RGB layer, or its only RGB layer named
+/// `Combined` (Blender's beauty pass); otherwise an error listing what the
+/// file has.
+fn choose_layer(
+    path: &Path,
+    layers: &[(usize, ExrLayer)],
+    layer: Option<&str>,
+) -> Result<usize, ImageError> {
+    let listing = || {
+        let all: Vec<String> = layers.iter().map(|(_, l)| l.describe()).collect();
+        all.join(", ")
+    };
+    let fail = |msg: String| {
+        Err(ImageError(
+            format!("{}: {msg}", path.display()),
+            ImageErrorKind::Format,
+        ))
+    };
+    let chosen = match layer {
+        Some(name) => match layers.iter().position(|(_, l)| l.name == name) {
+            Some(i) => i,
+            None => return fail(format!("has no layer '{name}'; its layers: {}", listing())),
+        },
+        None => {
+            let rgb: Vec<usize> = (0..layers.len())
+                .filter(|&i| {
+                    let c = &layers[i].1.channels;
+                    ["R", "G", "B"].iter().all(|n| c.iter().any(|x| x == n))
+                })
+                .collect();
+            if layers.len() == 1 {
+                0
+            } else if let Some(&i) = rgb.iter().find(|&&i| layers[i].1.name.is_empty()) {
+                i
+            } else if rgb.len() == 1 {
+                rgb[0]
+            } else if let [i] = rgb
+                .iter()
+                .copied()
+                .filter(|&i| {
+                    let n = &layers[i].1.name;
+                    n == "Combined" || n.ends_with(".Combined")
+                })
+                .collect::<Vec<_>>()[..]
+            {
+                i // Blender's beauty pass among its other RGB passes
+            } else if layers.is_empty() {
+                return fail("has no channels".to_string());
+            } else {
+                return fail(format!(
+                    "has {} layers, choose one with layer=: {}",
+                    layers.len(),
+                    listing()
+                ));
+            }
+        }
+    };
+    if layers[chosen].1.rgb().is_none() {
+        return fail(format!(
+            "layer {} has no R, G and B channels and is not a single channel: choose another \
+             with layer=: {}",
+            layers[chosen].1.describe(),
+            listing()
+        ));
+    }
+    Ok(chosen)
+}
+
+/// Reads an EXR as row-major RGB f32 (A ignored): the RGB layer of a plain
+/// file, or the layer `layer` names (see [`ExrLayer`]); a single-channel
+/// layer is read as grey (its value in R, G and B). The headers are read
+/// first: an image over `max_pixels`, or declaring more than the file can
+/// hold, is refused before its pixels are allocated, and a file whose
+/// layer is missing or ambiguous gets an error listing its layers.
+pub fn read_exr_layer(
+    path: &Path,
+    max_pixels: usize,
+    layer: Option<&str>,
+) -> Result<(usize, usize, Vec<f32>), ImageError> {
+    use exr::prelude::*;
+    let err = |e: &dyn std::fmt::Display| exr_format_error(path, e);
     let len = file_len(path, "EXR")?;
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(&e))?;
+    let mut total: u64 = 0;
     for header in meta.headers.iter() {
         let size = header.layer_size;
         let bytes_per_pixel: u64 = header
@@ -149,39 +330,76 @@ pub fn read_exr(path: &Path, max_pixels: usize) -> Result<(usize, usize, Vec<f32
             len,
             max_pixels,
         )?;
+        total = total.saturating_add(
+            (size.width() as u64 * size.height() as u64)
+                .saturating_mul(4 * header.channels.list.len() as u64),
+        );
+        if header.deep {
+            return Err(err(&"deep data is not supported"));
+        }
+        if let Some(c) = header
+            .channels
+            .list
+            .iter()
+            .find(|c| c.sampling != Vec2(1, 1))
+        {
+            return Err(err(&format_args!(
+                "channel '{}' is subsampled, which is not supported",
+                c.name
+            )));
+        }
     }
-    // The reader allocates the pixels in a callback that cannot fail: ask
-    // for the largest layer's buffer first, so a failure is an error here.
-    let largest = meta
-        .headers
-        .iter()
-        .map(|h| h.layer_size.width() * h.layer_size.height() * 3)
-        .max()
-        .unwrap_or(0);
-    Vec::<f32>::new().try_reserve_exact(largest).map_err(|_| {
+    let layers = layers_of(&meta.headers);
+    let chosen = choose_layer(path, &layers, layer)?;
+    // The reader allocates the channels in callbacks that cannot fail: ask
+    // for all of them, and the result, first, so a failure is an error here.
+    let (w, h) = (layers[chosen].1.width, layers[chosen].1.height);
+    let need = usize::try_from(total).unwrap_or(usize::MAX) / 4 + w * h * 3;
+    Vec::<f32>::new().try_reserve_exact(need).map_err(|_| {
         ImageError(
             format!(
                 "{}: cannot allocate {} bytes for its pixels",
                 path.display(),
-                4 * largest
+                4 * need as u128
             ),
             ImageErrorKind::Memory,
         )
     })?;
-    let image = read_first_rgba_layer_from_file(
-        path,
-        |res, _| (res.width(), vec![0.0f32; res.width() * res.height() * 3]),
-        |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            let i = (pos.y() * *w + pos.x()) * 3;
-            px[i] = r;
-            px[i + 1] = g;
-            px[i + 2] = b;
-        },
-    )
-    .map_err(|e| err(&e))?;
-    let size = image.layer_data.size;
-    let (_, px) = image.layer_data.channel_data.pixels;
-    Ok((size.width(), size.height(), px))
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| err(&e))?;
+    let (part, ref want) = layers[chosen];
+    let data = &image.layer_data[part];
+    let part_name = data.attributes.layer_name.as_ref().map(|t| t.to_string());
+    let channel = |short: &str| {
+        data.channel_data.list.iter().find(|c| {
+            split_channel(part_name.as_deref(), &c.name.to_string())
+                == (want.name.clone(), short.to_string())
+        })
+    };
+    let idx = want.rgb().expect("checked by choose_layer");
+    let mut px = try_zeroed::<f32>(w * h * 3, "the EXR's pixels")?;
+    for (k, &i) in idx.iter().enumerate() {
+        let c = channel(&want.channels[i]).ok_or_else(|| err(&"a channel vanished"))?;
+        if c.sample_data.len() != w * h {
+            return Err(err(&"a channel's sample count disagrees with its size"));
+        }
+        for (p, v) in c.sample_data.values_as_f32().enumerate() {
+            px[p * 3 + k] = v;
+        }
+    }
+    Ok((w, h, px))
+}
+
+/// Reads the RGB channels of a plain RGB(A) EXR: [`read_exr_layer`]
+/// without a layer name.
+pub fn read_exr(path: &Path, max_pixels: usize) -> Result<(usize, usize, Vec<f32>), ImageError> {
+    read_exr_layer(path, max_pixels, None)
 }
 
 /// Reads a PNG as row-major RGBA f32 in [0, 1] (8- or 16-bit, any color
@@ -345,6 +563,86 @@ mod tests {
         let (w, h, back) = read_exr(&p, DEFAULT_MAX_PIXELS).unwrap();
         assert_eq!((w, h), (5, 3));
         assert_eq!(back, data);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A file of two parts: "beauty" with Blender-style prefixed channels
+    /// (`ViewLayer.Combined.R/G/B/A`, `ViewLayer.Depth.Z`) and "mask", a
+    /// single unprefixed `Y`.
+    fn write_layered(p: &Path) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+        use exr::prelude::*;
+        let (w, h) = (4usize, 3usize);
+        let val =
+            |k: usize| -> Vec<f32> { (0..w * h).map(|i| (i * 7 + k) as f32 * 0.25).collect() };
+        let ch = |name: &str, k: usize| AnyChannel::new(name, FlatSamples::F32(val(k)));
+        let beauty = Layer::new(
+            Vec2(w, h),
+            LayerAttributes::named("beauty"),
+            Encoding::FAST_LOSSLESS,
+            AnyChannels::sort(SmallVec::from_vec(vec![
+                ch("ViewLayer.Combined.R", 1),
+                ch("ViewLayer.Combined.G", 2),
+                ch("ViewLayer.Combined.B", 3),
+                ch("ViewLayer.Combined.A", 4),
+                ch("ViewLayer.Depth.Z", 5),
+            ])),
+        );
+        let mask = Layer::new(
+            Vec2(w, h),
+            LayerAttributes::named("mask"),
+            Encoding::FAST_LOSSLESS,
+            AnyChannels::sort(SmallVec::from_vec(vec![ch("Y", 6)])),
+        );
+        Image::empty(ImageAttributes::new(IntegerBounds::from_dimensions(Vec2(
+            w, h,
+        ))))
+        .with_layer(beauty)
+        .with_layer(mask)
+        .write()
+        .to_file(p)
+        .unwrap();
+        let rgb = (0..w * h)
+            .flat_map(|i| [val(1)[i], val(2)[i], val(3)[i]])
+            .collect();
+        let grey = |k| (0..w * h).flat_map(|i| [val(k)[i]; 3]).collect();
+        (rgb, grey(5), grey(6))
+    }
+
+    #[test]
+    fn t02_multilayer_exr_layers_are_chosen_by_name() {
+        let dir = std::env::temp_dir().join(format!("hairshade-exr2-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("layers.exr");
+        let (rgb, depth, mask) = write_layered(&p);
+        let names: Vec<(String, Vec<String>)> = exr_layers(&p)
+            .unwrap()
+            .into_iter()
+            .map(|l| (l.name, l.channels))
+            .collect();
+        let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+        assert_eq!(
+            names,
+            vec![
+                ("beauty.ViewLayer.Combined".into(), s(&["A", "B", "G", "R"])),
+                ("beauty.ViewLayer.Depth".into(), s(&["Z"])),
+                ("mask".into(), s(&["Y"])),
+            ]
+        );
+        let read = |l| read_exr_layer(&p, DEFAULT_MAX_PIXELS, l).map(|(_, _, d)| d);
+        assert_eq!(read(Some("beauty.ViewLayer.Combined")).unwrap(), rgb);
+        assert_eq!(read(Some("beauty.ViewLayer.Depth")).unwrap(), depth);
+        assert_eq!(read(Some("mask")).unwrap(), mask);
+        // One RGB layer among others: the default.
+        assert_eq!(read(None).unwrap(), rgb);
+        let e = read(Some("Combined")).unwrap_err();
+        assert_eq!(e.1, ImageErrorKind::Format);
+        assert!(e.0.contains("has no layer 'Combined'"), "{}", e.0);
+        assert!(
+            e.0.contains("'beauty.ViewLayer.Combined' (A, B, G, R; 4x3)"),
+            "{}",
+            e.0
+        );
+        assert!(e.0.contains("'mask' (Y; 4x3)"), "{}", e.0);
         std::fs::remove_dir_all(&dir).ok();
     }
 }

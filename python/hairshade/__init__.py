@@ -17,7 +17,7 @@ from ._native import __version__, num_threads
 from .chiang import ChiangHair
 from .deon import DEonHair
 from .karis import KarisHair
-from .render import Preview, read_exr, rel_mse, render, show, side_by_side, tonemap, write_exr, write_png
+from .render import Preview, exr_layers, read_exr, rel_mse, render, show, side_by_side, tonemap, write_exr, write_png
 from .scene import Scene, SceneError
 
 if TYPE_CHECKING:
@@ -44,6 +44,6 @@ def __getattr__(name: str) -> Any:
 
 __all__ = [
     "ChiangHair", "DEonHair", "KarisHair", "Scene", "SceneError", "lobes", "mapping", "render",
-    "read_exr", "write_exr", "write_png", "tonemap", "show", "Preview", "rel_mse", "side_by_side", "examples",
+    "read_exr", "exr_layers", "write_exr", "write_png", "tonemap", "show", "Preview", "rel_mse", "side_by_side", "examples",
     "__version__", "num_threads",
 ]

@@ -335,15 +335,16 @@ def _flip(img: np.ndarray, ref: np.ndarray) -> tuple[float, str]:
     return float("nan") if f is None else f, why and f"FLIP failed: {why}"
 
 
-def _read_image(path: str) -> np.ndarray:
-    """An image for `compare`: an EXR as it is (linear), a PNG decoded from
-    sRGB to linear (its alpha dropped); other names are an error."""
+def _read_image(path: str, layer: str | None = None) -> np.ndarray:
+    """An image for `compare`: an EXR as it is (linear; ``layer`` of a
+    multilayer file), a PNG decoded from sRGB to linear (its alpha
+    dropped); other names are an error."""
     from . import _native
     from .render import read_exr, srgb_to_linear
 
     ext = os.path.splitext(path)[1].lower()
     if ext == ".exr":
-        return read_exr(path)
+        return read_exr(path, layer=layer)
     if ext == ".png":
         w, h, data = _native.read_png(path, None)
         return srgb_to_linear(data.reshape(h, w, 4)[..., :3]).astype(np.float32)
@@ -359,7 +360,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     if not args.no_flip:
         _extras.check(["flip_evaluator"], "hairshade compare (FLIP; --no-flip skips it)")
-    a, b = _read_image(args.image), _read_image(args.reference)
+    a, b = _read_image(args.image, args.layer), _read_image(args.reference, args.reference_layer)
     if a.shape != b.shape:
         print(f"error: {args.image} is {a.shape[1]}x{a.shape[0]}, {args.reference} is {b.shape[1]}x{b.shape[0]}", file=sys.stderr)
         return 2
@@ -451,6 +452,9 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--exposure", type=_exposure, default=0.0,
                    help="exposure of the --png picture in stops, in [-100, 100] (default 0)")
     c.add_argument("--no-flip", action="store_true", help="relMSE only (FLIP needs hairshade[flip])")
+    c.add_argument("--layer", help="the layer of a multilayer EXR IMAGE (e.g. ViewLayer.Combined; default: its "
+                                   "only RGB or Combined layer)")
+    c.add_argument("--reference-layer", help="the same for REFERENCE")
     c.set_defaults(func=cmd_compare)
     dm = sub.add_parser("demo", help="the demo head with each quality preset beside its converged truth, and Mitsuba "
                                      "at the balanced preset's error")

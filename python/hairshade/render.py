@@ -146,17 +146,37 @@ def write_exr(path: str | os.PathLike[str], image: npt.ArrayLike) -> None:
     _native.write_exr(os.fspath(path), (a.shape[1], a.shape[0], a.reshape(-1)))
 
 
-def read_exr(path: str | os.PathLike[str], max_pixels: int | None = None) -> Image:
-    """Reads the RGB channels of an OpenEXR file -> (H, W, 3) float32.
+def read_exr(path: str | os.PathLike[str], max_pixels: int | None = None, layer: str | None = None) -> Image:
+    """Reads an OpenEXR file's RGB channels -> (H, W, 3) float32 (A ignored).
+
+    A plain RGB(A) file needs no ``layer``. In a multilayer file (Blender's
+    ``ViewLayer.Combined.R``, ..., or several parts), ``layer`` names the
+    channels' common prefix, joined to the part's name with ``.``
+    (``"ViewLayer.Combined"``); without it, the file's only layer, its
+    unnamed RGB layer, its only RGB layer or its only RGB layer named
+    ``Combined`` (Blender's beauty pass) is read, and otherwise the
+    ``ValueError`` lists the file's layers (:func:`exr_layers` lists them
+    too). A single-channel layer (``"ViewLayer.Depth"``, a file of ``Y``
+    only) is read as grey: its value in R, G and B.
+
     A file declaring more than ``max_pixels`` (default 2^28) pixels, or
     more than its size can hold, is refused (ValueError) before its pixels
     are allocated; MemoryError when they cannot be. ``max_pixels``: a
-    whole number >= 1, or None."""
+    whole number >= 1, or None. Deep and subsampled channels are refused."""
     if max_pixels is not None and (isinstance(max_pixels, (bool, np.bool_))
                                    or not isinstance(max_pixels, numbers.Integral) or max_pixels < 1):
         raise ValueError(f"max_pixels: expected a whole number >= 1 or None, got {max_pixels!r:.80}")
-    w, h, data = _native.read_exr(os.fspath(path), None if max_pixels is None else int(max_pixels))
+    if layer is not None and not isinstance(layer, str):
+        raise TypeError(f"layer: expected a layer name (str) or None, got {layer!r:.80}")
+    w, h, data = _native.read_exr(os.fspath(path), None if max_pixels is None else int(max_pixels), layer)
     return data.reshape(h, w, 3)
+
+
+def exr_layers(path: str | os.PathLike[str]) -> dict[str, tuple[str, ...]]:
+    """The layers of an OpenEXR file (from its headers): layer name ->
+    channel names, in the file's order, as :func:`read_exr`'s ``layer``
+    takes them (``""`` for a plain file's channels)."""
+    return {name: tuple(channels) for name, channels, _, _ in _native.exr_layers(os.fspath(path))}
 
 
 def _rgb(image: npt.ArrayLike) -> np.ndarray:

@@ -69,12 +69,37 @@ fn read_with(
     Ok((w, h, to_numpy(py, d)))
 }
 
-/// Reads an EXR's RGB channels: (width, height, flat float32 array).
-/// Images over `max_pixels` (default 2^28) are refused before reading.
+/// Reads an EXR's RGB channels, of the layer `layer` names in a multilayer
+/// file: (width, height, flat float32 array); a single-channel layer comes
+/// back as grey. Images over `max_pixels` (default 2^28) are refused
+/// before reading.
 #[pyfunction]
-#[pyo3(signature = (path, max_pixels=None))]
-pub fn read_exr(py: Python<'_>, path: PathBuf, max_pixels: Option<usize>) -> Image<'_> {
-    read_with(py, path, max_pixels, crate::image_io::read_exr)
+#[pyo3(signature = (path, max_pixels=None, layer=None))]
+pub fn read_exr(
+    py: Python<'_>,
+    path: PathBuf,
+    max_pixels: Option<usize>,
+    layer: Option<String>,
+) -> Image<'_> {
+    let max = max_pixels.unwrap_or(DEFAULT_MAX_PIXELS);
+    let (w, h, d) = without_gil(py, || {
+        crate::image_io::read_exr_layer(&path, max, layer.as_deref())
+    })
+    .map_err(image_error)?;
+    Ok((w, h, to_numpy(py, d)))
+}
+
+/// The layers of an EXR file: a list of (name, channel names, width, height).
+#[pyfunction]
+pub fn exr_layers(
+    py: Python<'_>,
+    path: PathBuf,
+) -> PyResult<Vec<(String, Vec<String>, usize, usize)>> {
+    let layers = without_gil(py, || crate::image_io::exr_layers(&path)).map_err(image_error)?;
+    Ok(layers
+        .into_iter()
+        .map(|l| (l.name, l.channels, l.width, l.height))
+        .collect())
 }
 
 /// Reads a PNG: (width, height, flat RGBA float32 array in [0, 1]).

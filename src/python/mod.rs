@@ -33,6 +33,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(render::render_option_ranges, m)?,
         wrap_pyfunction!(io::write_exr, m)?,
         wrap_pyfunction!(io::read_exr, m)?,
+        wrap_pyfunction!(io::exr_layers, m)?,
         wrap_pyfunction!(io::write_png, m)?,
         wrap_pyfunction!(io::srgb8, m)?,
         wrap_pyfunction!(io::read_png, m)?,
