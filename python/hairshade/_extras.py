@@ -20,6 +20,8 @@ EXTRAS: dict[str, tuple[str, str]] = {
     "matplotlib": ("matplotlib", "plot"),
     "flip_evaluator": ("flip-evaluator", "flip"),
     "tqdm": ("tqdm", "progress"),
+    "pxr": ("usd-core", "usd"),
+    "bpy": ("bpy", "blender"),
 }
 
 

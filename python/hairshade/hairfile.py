@@ -96,3 +96,32 @@ def parse_hair(data: bytes, path: str) -> tuple[np.ndarray, np.ndarray, np.ndarr
     offsets = np.zeros(n_strands + 1, dtype=np.uint32)
     offsets[1:] = np.cumsum(counts)
     return points, radii, offsets
+
+
+def write_hair(path: str | os.PathLike, points: np.ndarray, radii: np.ndarray, offsets: np.ndarray,
+               info: str = "hairshade") -> None:
+    """Writes strands (flat arrays, as :func:`read_hair` returns them) as a
+    ``.hair`` file with per-strand segment counts and per-point thickness
+    (twice the radius): reading it back gives the same float32 arrays, bit
+    for bit. A strand may have at most 65 536 points (the format's uint16
+    segment count)."""
+    p = np.ascontiguousarray(points, dtype="<f4").reshape(-1, 3)
+    r = np.ascontiguousarray(radii, dtype="<f4").reshape(-1)
+    o = np.asarray(offsets, dtype=np.int64)
+    counts = np.diff(o)
+    if len(r) != len(p) or len(o) < 1 or o[0] != 0 or o[-1] != len(p) or np.any(counts < 2):
+        raise ValueError("points, radii, offsets: expected flat strand arrays (offsets from 0 to the point "
+                         "count, at least 2 points a strand)")
+    if np.any(counts > 65536):
+        raise ValueError(f"strand {int(np.argmax(counts > 65536))} has {int(counts.max())} points; "
+                         "the .hair format holds at most 65 536 a strand")
+    h = np.zeros(1, HEADER)
+    h["magic"], h["strands"], h["points"] = b"HAIR", len(counts), len(p)
+    h["flags"] = SEGMENTS | POINTS | THICKNESS
+    h["segments"] = 1
+    h["info"] = info.encode()[:88]
+    with open(path, "wb") as f:
+        f.write(h.tobytes())
+        f.write((counts - 1).astype("<u2").tobytes())
+        f.write(p.tobytes())
+        f.write((2 * r).astype("<f4").tobytes())

@@ -30,9 +30,13 @@ A scene file::
 - Hair comes from any combination of inline ``strands`` (``radius`` or a
   per-vertex ``radii`` list), a ``file`` (relative to the scene file; by
   extension: ``.hair``, Cem Yuksel's binary format, see
-  :mod:`hairshade.hairfile`; anything else is text: one ``x y z r`` vertex
-  per line, a blank line between strands, ``#`` comments) and ``generate`` (procedural: ``head``, ``bundle``, see
+  :mod:`hairshade.hairfile`; ``.usd``, ``.usda``, ``.usdc``, ``.usdz``: a
+  USD groom's ``BasisCurves``, cubic curves subdivided to within a tenth of
+  the fiber radius, see :mod:`hairshade.usd` (extra ``usd``); anything else
+  is text: one ``x y z r`` vertex per line, a blank line between strands,
+  ``#`` comments) and ``generate`` (procedural: ``head``, ``bundle``, see
   :mod:`hairshade.generate`). Radius 0 is allowed and draws nothing.
+- ``Scene.save`` writes a scene back (:mod:`hairshade.scene_save`).
 - Hair cards: ``cards`` (ribbons with an alpha texture, see
   :mod:`hairshade.cards`) and ``generate_cards`` (cards around a procedural
   head). Card and mesh triangles are clipped at the camera's near plane.
@@ -225,6 +229,17 @@ class Scene:
         except ValueError as e:
             key, _, msg = str(e).partition(": ")
             raise SceneError(f"render.{options.path_of(key, settings)}: {msg}") from None
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Writes the scene: ``.json`` in the scene format, with the strands
+        in a ``.hair`` file beside it (and OBJ meshes and card images), so
+        that :meth:`load` gives back the same arrays, settings and image;
+        ``.usd``/``.usda``/``.usdc``: the strands as a USD groom (extra
+        ``usd``). See :mod:`hairshade.scene_save`."""
+        from .scene_save import save
+
+        self.check()
+        save(self, path)
 
     @classmethod
     def load(cls, path: str | os.PathLike, allow_outside: bool = False) -> "Scene":
@@ -814,6 +829,7 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
     all_baked = True
     textures: list[np.ndarray] = []
     tex_keys: dict[str, int] = {}
+    specs: list[tuple[dict[str, Any], str | None]] = []
     for path, card in entries:
         card = c.obj(card, path)
         c.known(card, path, {"points", "width", "normal", "alpha"})
@@ -842,6 +858,7 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         corners.append(q)
         uvs.append(uv)
         tangents.append(t)
+        specs.append((card, c.file(alpha_spec["image"], f"{path}.alpha.image") if "image" in alpha_spec else None))
         if "bake" in alpha_spec:  # checked by load_alpha above
             fp, fr = card_fiber_strands(pts, width, normal / np.linalg.norm(normal), alpha_spec["bake"])
             fiber_pts += fp
@@ -858,6 +875,9 @@ def _parse_cards(hair: dict[str, Any], base_dir: str, c: _Ctx) -> dict[str, Any]
         # The fibers baked cards stand for, flat as the strands (points,
         # radii, offsets; None unless every card is baked).
         fibers=_flat_strands(fiber_pts, fiber_rads) if all_baked else None,
+        # every card as given (generated ones expanded), and the path of its
+        # alpha image (None when baked): what Scene.save writes back
+        specs=specs,
     )
 
 
@@ -875,6 +895,10 @@ def _read_hair_file(path: str, c: _Ctx, name: str) -> tuple[list[np.ndarray], li
     """A hair file's strands as lists of (points, radii): ``.hair``
     (binary, :mod:`hairshade.hairfile`) or the text format, by the extension
     of the ``name`` the scene gave (``path`` may be its resolved target)."""
+    from .usd import is_usd
+
+    if is_usd(name):
+        return _read_usd_file(path, c)
     if not name.lower().endswith(".hair"):
         return _read_strand_file(path, c)
     from .hairfile import parse_hair
@@ -890,6 +914,22 @@ def _read_hair_file(path: str, c: _Ctx, name: str) -> tuple[list[np.ndarray], li
     if msg:
         c.fail("hair.file", msg)
     return np.split(p.astype(np.float64), o[1:-1]), np.split(r.astype(np.float64), o[1:-1])
+
+
+def _read_usd_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """A USD groom's strands (:func:`hairshade.usd.read_usd`, cubic curves
+    subdivided to within a tenth of the fiber radius)."""
+    from .usd import GroomError, read_usd
+
+    try:
+        g = read_usd(path)
+    except GroomError as e:
+        c.fail("hair.file", str(e))
+    msg = _magnitude_error(g.points, g.radii, f"{path}: point", f"{path}: radius")
+    if msg:
+        c.fail("hair.file", msg)
+    o = g.offsets.astype(np.int64)
+    return np.split(g.points.astype(np.float64), o[1:-1]), np.split(g.radii.astype(np.float64), o[1:-1])
 
 
 def _read_strand_file(path: str, c: _Ctx) -> tuple[list[np.ndarray], list[np.ndarray]]:
