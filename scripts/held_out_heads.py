@@ -35,19 +35,23 @@ from hairshade.generate import generate
 CAMERA = {"position": [0.25, 0.1, 2.3], "target": [0.0, -0.12, 0.0], "up": [0, 1, 0], "fov": 40,
           "resolution": [320, 180]}
 HEAD = {"type": "sphere", "center": [0, 0, 0], "radius": 0.48, "albedo": [0.5, 0.4, 0.35]}
+# The cached references (tests/data/held_out) were rendered with Mitsuba's
+# hair at its default tilt, +2 degrees, which leans R towards the tip on
+# these root-first strands: ChiangHair's -2 (src/fiber/chiang.rs, docs/tilt.md).
+TILT = -2.0
 MATERIALS = {
     "blond": {"model": "chiang", "eumelanin": 0.15, "pheomelanin": 0.1, "longitudinal_roughness": 0.3,
-              "azimuthal_roughness": 0.4},
+              "azimuthal_roughness": 0.4, "scale_tilt": TILT},
     "auburn": {"model": "chiang", "eumelanin": 0.5, "pheomelanin": 0.6, "longitudinal_roughness": 0.3,
-               "azimuthal_roughness": 0.4},
+               "azimuthal_roughness": 0.4, "scale_tilt": TILT},
     "black": {"model": "chiang", "eumelanin": 4.0, "pheomelanin": 0.1, "longitudinal_roughness": 0.25,
-              "azimuthal_roughness": 0.35},
+              "azimuthal_roughness": 0.35, "scale_tilt": TILT},
     "light_blond": {"model": "chiang", "eumelanin": 0.1, "pheomelanin": 0.15, "longitudinal_roughness": 0.28,
-                    "azimuthal_roughness": 0.38},
+                    "azimuthal_roughness": 0.38, "scale_tilt": TILT},
     "ginger": {"model": "chiang", "eumelanin": 0.3, "pheomelanin": 1.1, "longitudinal_roughness": 0.27,
-               "azimuthal_roughness": 0.35},
+               "azimuthal_roughness": 0.35, "scale_tilt": TILT},
     "brown": {"model": "chiang", "eumelanin": 0.9, "pheomelanin": 0.3, "longitudinal_roughness": 0.3,
-              "azimuthal_roughness": 0.4},
+              "azimuthal_roughness": 0.4, "scale_tilt": TILT},
 }
 
 

@@ -182,7 +182,7 @@ def test_03_exact_mode_difference_is_the_i0_difference(beta_m):
     rel = np.where(mask, np.abs(e - m) / np.where(mask, m, 1), 0).max(axis=1)
 
     th_i, th_o = np.arcsin(WI[:, 1]), np.arcsin(WO[:, 1])
-    a = np.deg2rad(tilt)
+    a = -np.deg2rad(tilt)  # Mitsuba's alpha is -scale_tilt (src/fiber/chiang.rs)
     shifts = [-2 * a, a, 4 * a, 0.0]
     bound = np.zeros(len(WI))
     for p, v in enumerate(exact.variances):

@@ -30,12 +30,15 @@ EXAMPLES = pathlib.Path(__file__).parent.parent / "examples"
 # fibers (the bundle, backlit, is 10% darker), coverage anti-aliasing vs
 # box-filtered supersampling, polyline vs B-spline geometry.
 #   case            relMSE (noise)       mean FLIP (noise)
-#   single_strand   1.1e-4 (1.3e-6)      0.016 (0.002)
-#   backlit_bundle  2.2e-2 (1.1e-3)      0.057 (0.013)
+#   single_strand   9.3e-5 (8.6e-7)      0.016 (0.002)
+#   backlit_bundle  3.4e-2 (1.2e-3)      0.059 (0.011)
 #   strand_head     1.4e-3 (4.6e-4)      0.109 (0.035)
+# single_strand and backlit_bundle were measured again when ChiangHair's
+# tilt became physical (docs/tilt.md) and their references were rendered
+# with it: the backlit bundle went from 2.2e-2 to 3.4e-2.
 THRESHOLDS = {
     "single_strand": (2e-4, 0.025),
-    "backlit_bundle": (3e-2, 0.08),
+    "backlit_bundle": (4.7e-2, 0.085),
     "strand_head": (2.5e-3, 0.15),
 }
 

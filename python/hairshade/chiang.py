@@ -64,7 +64,11 @@ class ChiangHair(_models.Picklable):
     pheomelanin              None      >= 0; None means 0.2 when sigma_a is None
     longitudinal_roughness   0.3       beta_m in [0, 1]; below 1e-3 uses 1e-3
     azimuthal_roughness      0.3       beta_n in [0, 1]; below 1e-3 uses 1e-3
-    scale_tilt               2.0       cuticle angle alpha in degrees, [-90, 90]
+    scale_tilt               2.0       cuticle angle alpha in degrees, [-90, 90];
+                                       > 0: the scales' edges point to the tip
+                                       (+y) and R leans towards the root
+                                       (physical; Mitsuba's and pbrt's hair
+                                       tilt the other way: their -alpha)
     eta                      1.55      relative IOR int_ior / ext_ior; > 0, != 1
     int_ior, ext_ior         None      Mitsuba's names: eta = int_ior / ext_ior
                                        (ext_ior defaults to 1.000277, Mitsuba's

@@ -7,8 +7,8 @@ The starting point is analytic:
   set equal to the Karis width ``beta_R = r^2`` (d'Eon's ``v = beta^2``);
 - ``azimuthal_roughness``: the logistic whose standard deviation
   ``s pi / sqrt(3)`` equals the TT detector width ``r^2 / 2``;
-- ``scale_tilt``: the shift in degrees, with the sign that matches the
-  lobes' displacement (``-shift``: UE tilts R towards -T, Chiang towards +y);
+- ``scale_tilt``: the shift in degrees (UE and ChiangHair both lean R
+  towards the root, -T and -y);
 - ``sigma_a = -ln(C) / 4`` per channel, which is exactly UE's reference
   absorption ``mu_a`` (``T = exp(-2 mu_a cos(gamma_t) / cos(theta_t))`` in both).
 
@@ -67,7 +67,7 @@ def initial_chiang_params(material: KarisHair | DEonHair) -> dict[str, Any]:
         sigma_a=[float(x) for x in sigma_a],
         longitudinal_roughness=float(np.clip(beta_m, 1e-3, 1.0)),
         azimuthal_roughness=float(np.clip(beta_n, 1e-3, 1.0)),
-        scale_tilt=float(-np.rad2deg(shift)),
+        scale_tilt=float(np.rad2deg(shift)),
         eta=eta,
     )
 

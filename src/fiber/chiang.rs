@@ -1,5 +1,5 @@
 //! Chiang et al. 2016 near-field hair BSDF, as Mitsuba 3's `hair` plugin
-//! defines it.
+//! defines it, with the scale tilt's sign made physical (below).
 //!
 //! M. J.-Y. Chiang, B. Bitterli, C. Tappan, B. Burley, "A Practical and
 //! Controllable Hair and Fur Model for Production Path Tracing", CGF 35(2),
@@ -12,8 +12,17 @@
 //! ```
 //!
 //! - `M_p` (d'Eon): `κ/(2 sinh κ) · e^{-sin θi' sin θo κ} · I0(cos θi' cos θo κ)`,
-//!   `κ = 1/v_p`; θi' is θi tilted by the cuticle scales (−2α, α, 4α for
-//!   R, TT, TRT).
+//!   `κ = 1/v_p`; θi' is θi tilted by the cuticle scales (+2α, −α, −4α for
+//!   R, TT, TRT, θ positive towards +y).
+//! - The tilt's sign: the scales' free edges point to the tip, so a scale's
+//!   surface leans towards the root and R peaks at θi + θo = −2α (Marschner
+//!   et al. 2003, §4); with the tangent y running from a strand's first
+//!   point (its root) to its last, a positive `scale_tilt` shifts R towards
+//!   the root (−y), as UE's shift does in [`super::karis`]. Mitsuba's and
+//!   pbrt-v4's `hair` tilt the other way on the same tangent (R at
+//!   θi + θo = +2α): this model with α equals theirs with −α, and the
+//!   Mitsuba bridge passes −α (`docs/tilt.md` measures all three and
+//!   Cycles, which tilts as this model does).
 //! - `A_p`: Fresnel `f` at `cos θi · cos γi`; `A_0 = f`,
 //!   `A_1 = (1-f)² T`, `A_2 = A_1 T f`, `A_3 = A_2 f T / (1 - T f)` with
 //!   `T = exp(-σa · 2 cos γt / cos θt)`.
@@ -29,7 +38,7 @@
 //! | `eumelanin`, `pheomelanin` | 1.3, 0.2 | ≥ 0, finite |
 //! | `longitudinal_roughness` β_m | 0.3 | [0, 1]; values below 1e-3 use 1e-3 |
 //! | `azimuthal_roughness` β_n | 0.3 | [0, 1]; values below 1e-3 use 1e-3 |
-//! | `scale_tilt` α (degrees) | 2 | [-90, 90] |
+//! | `scale_tilt` α (degrees; > 0: R towards the root) | 2 | [-90, 90] |
 //! | `eta` (interior / exterior) | 1.55 | > 0, finite, ≠ 1 |
 //! | `i0` | exact | `Exact` or `Mitsuba` |
 //!
@@ -246,7 +255,8 @@ impl<T: Real> ChiangHair<T> {
     fn from_valid(p: &ChiangParams) -> Self {
         let v0 = longitudinal_variance(p.longitudinal_roughness);
         let s = azimuthal_scale(p.azimuthal_roughness);
-        let alpha = p.scale_tilt.to_radians();
+        // physical sign: Mitsuba's α is −scale_tilt (module docs)
+        let alpha = -p.scale_tilt.to_radians();
         let mut sin_2k = [alpha.sin(), 0.0, 0.0];
         let mut cos_2k = [circ(alpha.sin()), 0.0, 0.0];
         for i in 1..3 {
@@ -312,7 +322,7 @@ impl<T: Real> ChiangHair<T> {
     #[inline(always)]
     fn reframe_with_scales(&self, sin_theta_i: T, cos_theta_i: T, p: usize) -> (T, T) {
         let (sin_ip, cos_ip) = match p {
-            // R: −2α
+            // R: −2α in Mitsuba's α (+2 scale_tilt)
             0 => (
                 sin_theta_i * self.cos_2k_alpha[1] - cos_theta_i * self.sin_2k_alpha[1],
                 cos_theta_i * self.cos_2k_alpha[1] + sin_theta_i * self.sin_2k_alpha[1],

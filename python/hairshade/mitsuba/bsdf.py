@@ -18,7 +18,9 @@ from . import default_variant
 
 def hair_dict(model: ChiangHair) -> dict[str, Any]:
     """Mitsuba scene-dictionary entry of Mitsuba's ``hair`` BSDF with the
-    parameters of ``model`` (``ext_ior`` 1 so that eta is int_ior)."""
+    parameters of ``model`` (``ext_ior`` 1 so that eta is int_ior; the tilt
+    negated: Mitsuba's ``scale_tilt`` α shifts R as ChiangHair's −α does,
+    see ``docs/tilt.md``)."""
     p = model.params
     d: dict[str, Any] = {
         "type": "hair",
@@ -26,7 +28,7 @@ def hair_dict(model: ChiangHair) -> dict[str, Any]:
         "ext_ior": 1.0,
         "longitudinal_roughness": p["longitudinal_roughness"],
         "azimuthal_roughness": p["azimuthal_roughness"],
-        "scale_tilt": p["scale_tilt"],
+        "scale_tilt": -p["scale_tilt"],
     }
     if p["sigma_a"] is not None:
         d["sigma_a"] = {"type": "rgb", "value": list(p["sigma_a"])}
