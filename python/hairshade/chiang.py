@@ -75,6 +75,9 @@ class ChiangHair(_models.Picklable):
                                        "air"); exclusive with eta
     i0                       "exact"   "exact", or "mitsuba" to reproduce
                                        Mitsuba's truncated Bessel series
+    coat                     0.0       Blender's Coat, in [0, 1]: R's roughness
+                                       is (1 - coat) beta_m (Cycles); Mitsuba's
+                                       hair has none
     ======================== ========= =============================================
 
     Roughness 0 would turn lobes into Dirac deltas; it is raised to 1e-3
@@ -101,6 +104,7 @@ class ChiangHair(_models.Picklable):
         i0: str = "exact",
         int_ior: float | None = None,
         ext_ior: float | None = None,
+        coat: float = 0.0,
     ) -> None:
         eta = relative_ior(eta, int_ior, ext_ior)  # the model keeps eta only
         if i0 not in _I0_MODES:
@@ -129,8 +133,38 @@ class ChiangHair(_models.Picklable):
             scale_tilt=_models.scalar(scale_tilt, "scale_tilt"),
             eta=_models.scalar(eta, "eta"),
             i0=i0,
+            coat=_models.scalar(coat, "coat"),
         )
         self._native = _native.ChiangHair(**self._params)
+
+    # -- other renderers' parameters -----------------------------------------
+    @classmethod
+    def from_blender(cls, **inputs: Any) -> "ChiangHair":
+        """The ChiangHair of Blender's Principled Hair BSDF (Chiang model)
+        with these inputs, as Cycles evaluates them (formulas and sources:
+        :mod:`hairshade.hair_params`). Keywords, Blender's defaults:
+        ``parametrization`` ("color": Direct coloring; "melanin";
+        "absorption"), ``color`` (0.017513, 0.005763, 0.002059),
+        ``melanin`` 0.8, ``melanin_redness`` 1, ``tint`` (1, 1, 1),
+        ``absorption_coefficient`` (0.245531, 0.52, 1.365), ``roughness``
+        0.3, ``radial_roughness`` 0.3, ``coat`` 0, ``ior`` 1.55, ``offset``
+        2 (degrees), ``random_color`` 0, ``random_roughness`` 0, ``random``
+        (one strand's random number in [0, 1], needed when either random
+        amount is not 0)."""
+        from .hair_params import blender
+
+        return cls(**blender(**inputs))
+
+    @classmethod
+    def from_pbrt(cls, **params: Any) -> "ChiangHair":
+        """The ChiangHair of pbrt-v4's ``hair`` material with these
+        parameters (pbrt's names: ``sigma_a``, ``reflectance`` or ``color``,
+        ``eumelanin``, ``pheomelanin``, ``eta``, ``beta_m``, ``beta_n``,
+        ``alpha``; pbrt's defaults and clamps; its ``alpha`` tilts the other
+        way, so ``scale_tilt`` is -alpha). See :mod:`hairshade.hair_params`."""
+        from .hair_params import pbrt
+
+        return cls(**pbrt(**params))
 
     # -- parameters ---------------------------------------------------------
     @property

@@ -54,28 +54,36 @@ def bspline_polyline(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray,
                      samples: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each strand's uniform cubic B-spline (its vertices as control points,
     both ends tripled, as the Mitsuba bridge's ``bsplinecurve``) evaluated
-    at ``samples`` points a span: (points, radii, offsets)."""
+    at ``samples`` points a span, and at its end: (points, radii, offsets)."""
     B = np.array([[-1, 3, -3, 1], [3, -6, 3, 0], [-3, 0, 3, 0], [1, 4, 1, 0]], np.float64) / 6
     t = np.arange(samples) / samples
     T = np.stack([t**3, t**2, t, np.ones_like(t)], axis=1) @ B  # (samples, 4) weights
-    out_p, out_r, counts = [], [], []
     o = np.asarray(offsets, np.int64)
-    for s in range(len(o) - 1):
-        p = np.asarray(points[o[s]:o[s + 1]], np.float64)
-        r = np.asarray(radii[o[s]:o[s + 1]], np.float64)
-        p = np.concatenate([[p[0], p[0]], p, [p[-1], p[-1]]])
-        r = np.concatenate([[r[0], r[0]], r, [r[-1], r[-1]]])
-        spans = len(p) - 3
-        idx = np.arange(spans)[:, None] + np.arange(4)[None, :]
-        q = np.einsum("tj,sjk->stk", T, p[idx]).reshape(-1, 3)
-        w = np.einsum("tj,sj->st", T, r[idx]).reshape(-1)
-        out_p.append(np.concatenate([q, p[-1:]]))
-        out_r.append(np.concatenate([w, r[-1:]]))
-        counts.append(len(q) + 1)
+    n = np.diff(o)
+    # control points: every strand's vertices with both ends tripled
+    rep = np.ones(len(points), np.int64)
+    np.add.at(rep, o[:-1], 2)
+    np.add.at(rep, o[1:] - 1, 2)
+    idx = np.repeat(np.arange(len(points)), rep)
+    P = np.asarray(points, np.float64)[idx]
+    R = np.asarray(radii, np.float64)[idx]
+    starts = np.concatenate([[0], np.cumsum(n + 4)[:-1]])
+    spans = n + 1  # (n + 4) control points, n + 1 spans
+    s_first = np.repeat(starts, spans) + (np.arange(int(spans.sum())) - np.repeat(np.cumsum(spans) - spans, spans))
+    K = s_first[:, None] + np.arange(4)[None, :]
+    q = np.einsum("tj,sjk->stk", T, P[K]).reshape(-1, 3)
+    w = np.einsum("tj,sj->st", T, R[K]).reshape(-1)
+    # each strand's samples, then its end point
+    counts = spans * samples + 1
+    out_p = np.empty((int(counts.sum()), 3))
+    out_r = np.empty(int(counts.sum()))
     off = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    if not out_p:
-        return np.zeros((0, 3)), np.zeros(0), off
-    return np.concatenate(out_p), np.concatenate(out_r), off
+    body = np.ones(len(out_r), bool)
+    body[off[1:] - 1] = False
+    out_p[body], out_r[body] = q, w
+    ends = starts + n + 3
+    out_p[~body], out_r[~body] = P[ends], R[ends]
+    return out_p, out_r, off
 
 
 def _look_at(position: Any, target: Any, up: Any) -> np.ndarray:

@@ -37,6 +37,7 @@
 //! | `sigma_a` (RGB, per unit fiber radius) | melanin | each ≥ 0, finite; exclusive with melanin |
 //! | `eumelanin`, `pheomelanin` | 1.3, 0.2 | ≥ 0, finite |
 //! | `longitudinal_roughness` β_m | 0.3 | [0, 1]; values below 1e-3 use 1e-3 |
+//! | `coat` c (Blender's Coat: R's β_m is (1 − c) β_m) | 0 | [0, 1] |
 //! | `azimuthal_roughness` β_n | 0.3 | [0, 1]; values below 1e-3 use 1e-3 |
 //! | `scale_tilt` α (degrees; > 0: R towards the root) | 2 | [-90, 90] |
 //! | `eta` (interior / exterior) | 1.55 | > 0, finite, ≠ 1 |
@@ -109,6 +110,9 @@ pub struct ChiangParams {
     pub pheomelanin: Option<f64>,
     /// β_m in [0, 1].
     pub longitudinal_roughness: f64,
+    /// Blender's Coat c in [0, 1]: R's longitudinal roughness is (1 − c) β_m
+    /// (Cycles' `m0_roughness`); 0 is Chiang's model.
+    pub coat: f64,
     /// β_n in [0, 1].
     pub azimuthal_roughness: f64,
     /// Cuticle scale angle α in degrees.
@@ -126,6 +130,7 @@ impl Default for ChiangParams {
             eumelanin: None,
             pheomelanin: None,
             longitudinal_roughness: 0.3,
+            coat: 0.0,
             azimuthal_roughness: 0.3,
             scale_tilt: 2.0,
             eta: 1.55,
@@ -185,6 +190,7 @@ impl ChiangParams {
         for (name, v) in [
             ("longitudinal_roughness", self.longitudinal_roughness),
             ("azimuthal_roughness", self.azimuthal_roughness),
+            ("coat", self.coat),
         ] {
             if !(0.0..=1.0).contains(&v) {
                 return Err(param_error(
@@ -254,6 +260,12 @@ struct Geometry<T> {
 impl<T: Real> ChiangHair<T> {
     fn from_valid(p: &ChiangParams) -> Self {
         let v0 = longitudinal_variance(p.longitudinal_roughness);
+        // R's variance: with a coat, from the roughness (1 − c) β_m
+        let v_r = if p.coat > 0.0 {
+            longitudinal_variance((1.0 - p.coat) * p.longitudinal_roughness)
+        } else {
+            v0
+        };
         let s = azimuthal_scale(p.azimuthal_roughness);
         // physical sign: Mitsuba's α is −scale_tilt (module docs)
         let alpha = -p.scale_tilt.to_radians();
@@ -265,7 +277,7 @@ impl<T: Real> ChiangHair<T> {
         }
         let sigma_a = p.absorption();
         Self {
-            v: [v0, 0.25 * v0, 4.0 * v0, 4.0 * v0].map(T::from_f64),
+            v: [v_r, 0.25 * v0, 4.0 * v0, 4.0 * v0].map(T::from_f64),
             s: T::from_f64(s),
             inv_norm: T::from_f64(trimmed_logistic_inv_norm(s)),
             sin_2k_alpha: sin_2k.map(T::from_f64),

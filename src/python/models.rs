@@ -176,7 +176,7 @@ fn from_f32<T: Float>(x: f32) -> T {
 #[pymethods]
 impl PyChiangHair {
     #[new]
-    #[pyo3(signature = (sigma_a, eumelanin, pheomelanin, longitudinal_roughness, azimuthal_roughness, scale_tilt, eta, i0))]
+    #[pyo3(signature = (sigma_a, eumelanin, pheomelanin, longitudinal_roughness, azimuthal_roughness, scale_tilt, eta, i0, coat=0.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         sigma_a: Option<[f64; 3]>,
@@ -187,6 +187,7 @@ impl PyChiangHair {
         scale_tilt: f64,
         eta: f64,
         i0: &str,
+        coat: f64,
     ) -> PyResult<Self> {
         let i0 = by_name(
             "i0",
@@ -198,6 +199,7 @@ impl PyChiangHair {
             eumelanin,
             pheomelanin,
             longitudinal_roughness,
+            coat,
             azimuthal_roughness,
             scale_tilt,
             eta,

@@ -22,6 +22,8 @@ def hair_dict(model: ChiangHair) -> dict[str, Any]:
     negated: Mitsuba's ``scale_tilt`` α shifts R as ChiangHair's −α does,
     see ``docs/tilt.md``)."""
     p = model.params
+    if p.get("coat", 0.0):
+        raise ValueError(f"coat: Mitsuba's hair has no coat (R's own roughness); got coat={p['coat']!r}")
     d: dict[str, Any] = {
         "type": "hair",
         "int_ior": p["eta"],
