@@ -47,7 +47,8 @@ def main() -> None:
     info = dict(scene=os.path.relpath(args.scene, os.path.dirname(os.path.abspath(args.out))), spp_per_half=args.spp,
                 seeds=args.seeds, bounces=args.bounces, blender=bpy.app.version_string, cpu=cpu_name(),
                 seconds_per_half=seconds, halves_rel_mse=float(hs.rel_mse(halves[0], halves[1])),
-                mean_rgb=[float(x) for x in mean.reshape(-1, 3).mean(0)])
+                mean_rgb=[float(x) for x in mean.reshape(-1, 3).mean(0)],
+                halves_mean_rgb=[[float(x) for x in h.reshape(-1, 3).mean(0)] for h in halves])
     with open(os.path.splitext(args.out)[0] + ".json", "w") as f:
         json.dump(info, f, indent=1)
         f.write("\n")

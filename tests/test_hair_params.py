@@ -153,3 +153,42 @@ def test_08_single_fibers_against_cycles():
         worst = max(worst, float(np.abs(ours / cyc - 1).max()))
     print(f"worst |hairshade / Cycles - 1| = {worst:.4f}")
     assert worst < 0.02
+
+
+def test_09_mitsuba_dicts():
+    """A Mitsuba hair dictionary, with its rgb values, named IORs and
+    defaults: ChiangHair.from_mitsuba evaluates as Mitsuba does (1e-4, the
+    BSDF validation's tolerance, in Mitsuba's I0 mode, on its well-
+    conditioned pairs as in test_chiang_ior), and the bridge's own
+    dictionary comes back to the same parameters."""
+    mi = pytest.importorskip("mitsuba")
+    from hairshade.mitsuba import hair_dict
+    from hairshade.validation import direction_pairs, well_conditioned
+
+    wi, wo = direction_pairs(60, 7)
+    sel = well_conditioned(wi)
+    wi, wo = wi[sel], wo[sel]
+    wi = wi / np.linalg.norm(wi, axis=1, keepdims=True)
+    wo = wo / np.linalg.norm(wo, axis=1, keepdims=True)
+    mi.set_variant("scalar_rgb")
+    for d in ({"type": "hair", "sigma_a": {"type": "rgb", "value": [0.3, 0.5, 0.9]}, "scale_tilt": 3.0},
+              {"type": "hair", "eumelanin": 0.7, "int_ior": "amber", "ext_ior": "air",
+               "longitudinal_roughness": 0.4}):
+        ours = hs.ChiangHair.from_mitsuba(d)
+        b = mi.load_dict(d)
+        si = mi.SurfaceInteraction3f()
+        ref = np.empty((len(wi), 3))
+        for i in range(len(wi)):
+            si.wi = mi.Vector3f(wi[i])
+            ref[i] = np.array(b.eval(mi.BSDFContext(), si, mi.Vector3f(wo[i])))
+        got = hs.ChiangHair(**dict(ours.params, i0="mitsuba")).eval(wi, wo)
+        floor = 1e-4 * np.abs(ref).max()
+        assert (np.abs(got - ref) / np.maximum(np.abs(ref), floor)).max() <= 1e-4
+        back = hs.ChiangHair.from_mitsuba(hair_dict(ours))
+        assert back.params == ours.params
+    with pytest.raises(ValueError, match="type: expected 'hair'"):
+        hs.ChiangHair.from_mitsuba({"type": "diffuse"})
+    with pytest.raises(ValueError, match="sigma_a: expected a number, 3 numbers or"):
+        hs.ChiangHair.from_mitsuba({"type": "hair", "sigma_a": {"type": "spectrum", "value": 0.5}})
+    with pytest.raises(ValueError, match="int_ior: 'glass' is not one of the media known here"):
+        hs.ChiangHair.from_mitsuba({"type": "hair", "int_ior": "glass"})

@@ -166,6 +166,16 @@ class ChiangHair(_models.Picklable):
 
         return cls(**pbrt(**params))
 
+    @classmethod
+    def from_mitsuba(cls, bsdf: dict[str, Any]) -> "ChiangHair":
+        """The ChiangHair of a Mitsuba 3 ``hair`` BSDF dictionary, as
+        ``mi.load_dict`` takes it (``{"type": "rgb", "value": ...}`` values,
+        named IORs, Mitsuba's defaults; its ``scale_tilt`` is ChiangHair's
+        negative). See :func:`hairshade.hair_params.mitsuba`."""
+        from .hair_params import mitsuba
+
+        return cls(**mitsuba(bsdf))
+
     # -- parameters ---------------------------------------------------------
     @property
     def params(self) -> dict[str, Any]:

@@ -170,3 +170,59 @@ def pbrt(sigma_a: Sequence[float] | None = None, reflectance: Sequence[float] | 
         eta=_number(eta, "eta"),
         scale_tilt=-_number(alpha, "alpha", -90, 90),
     )
+
+
+#: Mitsuba's named media that its hair BSDF's IORs default to.
+MITSUBA_IORS = {"amber": 1.55, "air": 1.000277, "vacuum": 1.0, "water": 1.3330}
+
+
+def mitsuba(d: dict[str, Any]) -> dict[str, Any]:
+    """ChiangHair keyword arguments of a Mitsuba 3 ``hair`` BSDF dictionary
+    (as ``mi.load_dict`` takes it): ``type`` "hair"; ``sigma_a`` a number,
+    3 numbers or ``{"type": "rgb", "value": ...}``; ``eumelanin``,
+    ``pheomelanin``; ``scale`` (multiplies sigma_a); the roughnesses;
+    ``int_ior`` and ``ext_ior`` as numbers or Mitsuba's names amber, air,
+    vacuum, water; ``scale_tilt`` in Mitsuba's convention, so ChiangHair's
+    is its negative (``docs/tilt.md``)."""
+    if not isinstance(d, dict):
+        raise TypeError(f"expected a Mitsuba BSDF dictionary, got {d!r:.80}")
+    allowed = {"type", "sigma_a", "eumelanin", "pheomelanin", "scale", "longitudinal_roughness",
+               "azimuthal_roughness", "scale_tilt", "int_ior", "ext_ior", "id"}
+    unknown = set(d) - allowed
+    if unknown:
+        raise ValueError(f"{sorted(unknown)[0]}: not a parameter of Mitsuba's hair BSDF (parameters: "
+                         f"{', '.join(sorted(allowed - {'id'}))})")
+    if d.get("type", "hair") != "hair":
+        raise ValueError(f"type: expected 'hair' (Mitsuba's hair BSDF), got {d.get('type')!r:.80}")
+    out: dict[str, Any] = {}
+    if "sigma_a" in d:
+        if "eumelanin" in d or "pheomelanin" in d:
+            raise ValueError("sigma_a: give either sigma_a or eumelanin/pheomelanin, not both (as Mitsuba)")
+        s = d["sigma_a"]
+        if isinstance(s, dict):
+            if s.get("type") != "rgb" or set(s) - {"type", "value"}:
+                raise ValueError(f"sigma_a: expected a number, 3 numbers or {{'type': 'rgb', 'value': ...}}, "
+                                 f"got {s!r:.80}")
+            s = s.get("value")
+        sa = _rgb(s, "sigma_a") * _number(d.get("scale", 1.0), "scale", 0)
+        out["sigma_a"] = [float(x) for x in sa]
+    else:
+        if "scale" in d and d["scale"] != 1:
+            raise ValueError("scale: Mitsuba applies it to sigma_a only; give sigma_a")
+        for k in ("eumelanin", "pheomelanin"):
+            out[k] = _number(d.get(k, 1.3 if k == "eumelanin" else 0.2), k, 0)
+    for k in ("longitudinal_roughness", "azimuthal_roughness"):
+        out[k] = _number(d.get(k, 0.3), k, 0, 1)
+    out["scale_tilt"] = -_number(d.get("scale_tilt", 2.0), "scale_tilt", -90, 90)
+
+    def ior(k: str, default: str) -> float:
+        v = d.get(k, default)
+        if isinstance(v, str):
+            if v not in MITSUBA_IORS:
+                raise ValueError(f"{k}: {v!r:.40} is not one of the media known here ({', '.join(MITSUBA_IORS)}); "
+                                 "give a number")
+            return MITSUBA_IORS[v]
+        return _number(v, k, 1e-3, 1e3)
+
+    out["eta"] = ior("int_ior", "amber") / ior("ext_ior", "air")
+    return out

@@ -1,0 +1,234 @@
+"""Three truths on the dense heads: Mitsuba's references (tests/data/dense),
+Cycles' (tests/data/cycles, scripts/make_cycles_reference.py) and the
+rasterizer's accurate preset, per channel; and why the two path tracers
+differ. Writes docs/three_truths.md and docs/three_truths.csv.
+
+    python scripts/three_truths.py            # the tables, from the cached references
+    python scripts/three_truths.py --pairs    # also re-render the fiber pairs (needs bpy and mitsuba)
+
+The fiber pairs: two fibers of radius 0.01, parallel 0.025 apart, crossing
+0.022 apart in depth, or overlapping (their axes 0.0146 apart, closer than
+the 0.02 of two radii), rendered by both path tracers at path depth 2
+(direct light) and 3 (plus the light one fiber scatters into the other),
+2 x 1024 samples a pixel. The heads' overlap: the fraction of points along
+their strands (8 a segment) closer to another strand's point than the two
+radii, a lower bound of how much of each head lies inside another fiber.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import re
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "python"))
+import hairshade as hs  # noqa: E402
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+DENSE = os.path.join(ROOT, "tests", "data", "dense")
+CYCLES = os.path.join(ROOT, "tests", "data", "cycles")
+HEADS = ["auburn_key", "black_top", "blond_back", "blond_env", "brown_side", "ginger_two"]
+BLOND = {"model": "chiang", "eumelanin": 0.15, "pheomelanin": 0.1, "longitudinal_roughness": 0.3,
+         "azimuthal_roughness": 0.4}
+PAIRS = {
+    "parallel": [[[-0.5, 0, 0], [0.5, 0, 0]], [[-0.5, 0.025, 0], [0.5, 0.025, 0]]],
+    "crossing": [[[-0.5, 0, 0], [0.5, 0, 0]], [[-0.35, -0.35, -0.022], [0.35, 0.35, -0.022]]],
+    "overlapping": [[[-0.5, 0, 0], [0.5, 0, 0]], [[-0.5, 0.014, -0.004], [0.5, 0.014, -0.004]]],
+}
+
+
+def pair_scene(kind: str) -> hs.Scene:
+    strands = [{"points": [list(np.array(a) + (np.array(b) - np.array(a)) * t) for t in np.linspace(0, 1, 9)],
+                "radius": 0.01} for a, b in PAIRS[kind]]
+    return hs.Scene.from_dict({
+        "hairshade_scene": 1,
+        "camera": {"position": [0, 0.0125, 1.2], "target": [0, 0.0125, 0], "fov": 12, "resolution": [160, 90]},
+        "lights": [{"type": "directional", "direction": [-0.3, 0.5, 1.0], "intensity": [3, 3, 3]}],
+        "hair": {"strands": strands, "material": BLOND}, "render": {}})
+
+
+def white_furnace_scene() -> hs.Scene:
+    """4000 of auburn_key's strands, white (σa = 0), alone in a white
+    environment: every path ends in the environment, so every pixel is 1."""
+    d = json.load(open(os.path.join(DENSE, "auburn_key.json")))
+    d["meshes"] = []
+    d["lights"] = [{"type": "environment", "radiance": [1, 1, 1]}]
+    d["hair"]["material"] = {"model": "chiang", "sigma_a": [0, 0, 0], "longitudinal_roughness": 0.3,
+                             "azimuthal_roughness": 0.4}
+    d["hair"]["generate"]["strands"] = 4000
+    d["camera"]["resolution"] = [80, 45]
+    return hs.Scene.from_dict(d)
+
+
+def render_experiments(spp: int) -> list[dict]:
+    """Both path tracers on the fiber pairs (depths 2 and 3), auburn_key at
+    depths 2 and 3 (spp / 4), and the white furnace (256 bounces, spp / 8)."""
+    import hairshade.mitsuba as hm
+    from hairshade import cycles
+
+    cases = [(f"pair:{k}", pair_scene(k), d, spp) for k in PAIRS for d in (2, 3)]
+    auburn = hs.Scene.load(os.path.join(DENSE, "auburn_key.json"))
+    cases += [("auburn_key", auburn, d, spp // 4) for d in (2, 3)]
+    cases += [("white_furnace", white_furnace_scene(), 258, spp // 8)]
+    rows = []
+    for name, sc, depth, n in cases:
+        c = 0.5 * sum(cycles.render(sc, spp=n, max_bounces=depth - 2, seed=s) for s in (1, 2))
+        m = 0.5 * sum(hm.render(sc, spp=n, integrator="path", max_depth=depth, seed=s, progress=False)
+                      for s in (1, 2))
+        rows.append(dict(case=name, depth=depth, spp=2 * n, cycles=c.reshape(-1, 3).mean(0).tolist(),
+                         mitsuba=m.reshape(-1, 3).mean(0).tolist()))
+        print(rows[-1], flush=True)
+    return rows
+
+
+def overlap_fraction(scene: hs.Scene) -> float:
+    from scipy.spatial import cKDTree
+
+    p, r = scene.points.astype(np.float64), scene.radii.astype(np.float64)
+    o = scene.offsets.astype(np.int64)
+    seg = np.ones(len(p), bool)
+    seg[o[1:] - 1] = False  # a segment starts at every point but a strand's last
+    a, b, ra = p[seg], p[np.flatnonzero(seg) + 1], r[seg]
+    strand = np.repeat(np.arange(len(o) - 1), np.diff(o))[seg]
+    t = (np.arange(8) + 0.5) / 8
+    q = (a[:, None] + (b - a)[:, None] * t[None, :, None]).reshape(-1, 3)
+    qs, qr = np.repeat(strand, 8), np.repeat(ra, 8)
+    pairs = cKDTree(q).query_pairs(2 * qr.max(), output_type="ndarray")
+    pairs = pairs[qs[pairs[:, 0]] != qs[pairs[:, 1]]]
+    close = np.linalg.norm(q[pairs[:, 0]] - q[pairs[:, 1]], axis=1) < qr[pairs[:, 0]] + qr[pairs[:, 1]]
+    inside = np.zeros(len(q), bool)
+    inside[pairs[close].ravel()] = True
+    return float(inside.mean())
+
+
+def mitsuba_noise() -> dict[str, float]:
+    """The halves relMSE of each dense reference, from its README's table."""
+    out = {}
+    for line in open(os.path.join(DENSE, "README.md")):
+        m = re.match(r"\| (\w+) \|.*\| ([0-9.]+e-?[0-9]+) \|\s*$", line)
+        if m:
+            out[m.group(1)] = float(m.group(2))
+    return out
+
+
+def fmt(v: np.ndarray) -> str:
+    return " / ".join(f"{x:.3f}" for x in v)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--pairs", action="store_true",
+                    help="render the fiber pairs, auburn_key's first bounce and the white furnace again (bpy, mitsuba)")
+    ap.add_argument("--spp", type=int, default=1024)
+    ap.add_argument("--out", default=os.path.join(ROOT, "docs"))
+    args = ap.parse_args()
+    from hairshade.demo import cpu_name
+
+    pairs_csv = os.path.join(args.out, "three_truths_experiments.csv")
+    if args.pairs:
+        rows = render_experiments(args.spp)
+        with open(pairs_csv, "w", newline="") as f:
+            wr = csv.writer(f)
+            wr.writerow(["case", "depth", "spp", "cycles_r", "cycles_g", "cycles_b", "mitsuba_r", "mitsuba_g",
+                         "mitsuba_b"])
+            for r in rows:
+                wr.writerow([r["case"], r["depth"], r["spp"], *r["cycles"], *r["mitsuba"]])
+    exp = {}
+    for r in csv.DictReader(open(pairs_csv)):
+        exp[(r["case"], int(r["depth"]))] = (np.array([float(r[f"cycles_{c}"]) for c in "rgb"]),
+                                            np.array([float(r[f"mitsuba_{c}"]) for c in "rgb"]))
+    pairs = {(k.split(":", 1)[1], d): v for (k, d), v in exp.items() if k.startswith("pair:")}
+
+    noise = mitsuba_noise()
+    rows = []
+    for name in HEADS:
+        info = json.load(open(os.path.join(CYCLES, f"{name}.json")))
+        cyc = hs.read_exr(os.path.join(CYCLES, f"{name}.exr"))
+        mit = hs.read_exr(os.path.join(DENSE, f"{name}.exr"))
+        scene = hs.Scene.load(os.path.join(DENSE, f"{name}.json"))
+        t0 = time.perf_counter()
+        img = hs.render(scene, quality="accurate", progress=False)
+        secs = time.perf_counter() - t0
+        mean = lambda a: a.reshape(-1, 3).mean(0)  # noqa: E731
+        rows.append(dict(
+            head=name, cycles_over_mitsuba=fmt(mean(cyc) / mean(mit)), rel_mse_cycles_mitsuba=hs.rel_mse(cyc, mit),
+            cycles_noise=info["halves_rel_mse"], mitsuba_noise=noise.get(name, float("nan")),
+            accurate_over_mitsuba=fmt(mean(img) / mean(mit)), accurate_rel_mse_mitsuba=hs.rel_mse(img, mit),
+            accurate_over_cycles=fmt(mean(img) / mean(cyc)), accurate_rel_mse_cycles=hs.rel_mse(img, cyc),
+            cycles_spp=2 * info["spp_per_half"], cycles_seconds=sum(info["seconds_per_half"]),
+            overlap=overlap_fraction(scene), accurate_seconds=round(secs, 2)))
+        print(rows[-1], flush=True)
+    with open(os.path.join(args.out, "three_truths.csv"), "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
+        wr.writeheader()
+        wr.writerows(rows)
+
+    first = lambda k: (pairs[(k, 3)][0] - pairs[(k, 2)][0]) / (pairs[(k, 3)][1] - pairs[(k, 2)][1])  # noqa: E731
+    a2, a3 = exp[("auburn_key", 2)], exp[("auburn_key", 3)]
+    furnace = exp[("white_furnace", 258)]
+    info0 = json.load(open(os.path.join(CYCLES, f"{HEADS[0]}.json")))
+    lines = [
+        "# Three truths: Mitsuba, Cycles and the accurate preset",
+        "",
+        f"Generated by `python scripts/three_truths.py` (the fiber pairs: `--pairs`, data `three_truths_pairs.csv`; "
+        f"per head: `three_truths.csv`). Cycles: Blender {info0['blender']}, `hairshade.cycles` (Principled Hair, "
+        f"Chiang, 64 bounces), {info0['spp_per_half']} samples a pixel in each of two halves, "
+        f"`scripts/make_cycles_reference.py` on {info0['cpu']}; Mitsuba: the dense references "
+        "(`llvm_ad_rgb`, `path`, max_depth 64). The accurate preset's frame times: this run, "
+        f"{cpu_name()}.",
+        "",
+        "## The dense heads",
+        "",
+        "Mean radiance per channel (R / G / B) as ratios; relMSE as everywhere in this project; noise: the "
+        "relMSE between a reference's two halves.",
+        "",
+        "| head | Cycles / Mitsuba | relMSE (Cycles noise, Mitsuba noise) | accurate / Mitsuba | accurate / Cycles "
+        "| accurate relMSE vs Mitsuba, vs Cycles | Cycles s (2 cores) | overlap |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in rows:
+        lines.append(f"| {r['head']} | {r['cycles_over_mitsuba']} | {r['rel_mse_cycles_mitsuba']:.2e} "
+                     f"({r['cycles_noise']:.1e}, {r['mitsuba_noise']:.1e}) | {r['accurate_over_mitsuba']} | "
+                     f"{r['accurate_over_cycles']} | {r['accurate_rel_mse_mitsuba']:.2e}, "
+                     f"{r['accurate_rel_mse_cycles']:.2e} | {r['cycles_seconds']:.0f} | {100 * r['overlap']:.0f}% |")
+    lines += [
+        "",
+        "## Why Mitsuba and Cycles differ: fibers inside fibers",
+        "",
+        f"Direct light agrees: Cycles' single scattering on auburn_key is {fmt(a2[0] / a2[1])} of Mitsuba's "
+        "(max_depth 2), and single fibers agree within about 1% (`cycles_fibers.md`; Cycles' ten-term I0 series "
+        "lowers its M_p by up to 1.5% where the Bessel argument nears 12). The light one fiber scatters into "
+        "another is where they part, and only when the fibers overlap:",
+        "",
+        "| fibers | depth 2: Cycles / Mitsuba | scattered between them (depth 3 − 2): Cycles / Mitsuba |",
+        "| --- | --- | --- |",
+    ]
+    for k in PAIRS:
+        lines.append(f"| {k} | {fmt(pairs[(k, 2)][0] / pairs[(k, 2)][1])} | {fmt(first(k))} |")
+    lines += [
+        "",
+        "A ray leaving one fiber from a point inside another meets the inside of that other tube: Mitsuba's "
+        "curves report the hit and scatter there, Cycles' do not and let the ray out. Neither is physical: real "
+        "fibers do not interpenetrate. The generator's heads do, everywhere (the overlap column: at least that "
+        "share of each head's strand points lies within two radii of another strand's), so their multiple "
+        "scattering in Mitsuba includes light bounced inside overlapping fibers that Cycles passes on, and the "
+        "two truths differ by that much. On auburn_key, the first bounce between fibers (depth 3 − 2) is "
+        f"{fmt((a3[0] - a2[0]) / (a3[1] - a2[1]))} of Mitsuba's in Cycles; white fibers in a white "
+        f"environment average {fmt(furnace[0])} in Cycles and {fmt(furnace[1])} in Mitsuba (256 bounces): "
+        "energy is conserved either way, the difference is where light goes, not whether it is lost. A groom whose "
+        "fibers never overlap would make the two agree; the dense heads' references are what each path "
+        "tracer makes of the overlapping geometry.",
+    ]
+    with open(os.path.join(args.out, "three_truths.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("wrote", os.path.join(args.out, "three_truths.md"))
+
+
+if __name__ == "__main__":
+    main()
