@@ -70,6 +70,22 @@ def fiber_scene(material: dict, light: list[float]) -> hs.Scene:
         render={"transparency": {"coverage": {"samples": 64}}, "multiple_scattering": "none"})
 
 
+def exact_sum(model: hs.ChiangHair, light: list[float]) -> np.ndarray:
+    """The image sum the scene should have: ChiangHair's far field (its
+    average over h, with the exact I0) at the view direction of 32 points
+    per pixel column along the fiber, times the fiber's width in pixels."""
+    L = np.asarray(light, float) / np.linalg.norm(light)
+    xs = (np.arange(W * 32) + 0.5) / (W * 32) * 2 - 1  # the image spans x in [-1, 1] at z = 0
+    V = np.stack([-xs, np.zeros_like(xs), np.full_like(xs, 40.0)], axis=1)
+    V /= np.linalg.norm(V, axis=1, keepdims=True)
+    t, n = np.array([1.0, 0, 0]), np.array([0, 0, 1.0])
+    x = np.cross(t, n)
+    local = lambda v: np.stack([v @ x, v @ t, v @ n], axis=-1)  # noqa: E731
+    f = model.eval_far(local(V), np.repeat(local(L)[None], len(V), axis=0))
+    width_px = 0.02 / (0.5 / H)
+    return width_px * f.sum(axis=0) / 32
+
+
 def cycles_fiber(bpy, scene: hs.Scene, inputs: dict, spp: int, seed: int) -> np.ndarray:
     """Cycles' image with the Principled Hair node set from Blender inputs
     (not from hairshade's conversion)."""
@@ -126,12 +142,16 @@ def main() -> None:
             ours = hs.render(scene)
             mi = None if model.params["coat"] else hm.render(scene, spp=args.spp, integrator="direct", progress=False)
             s_cy, s_ours = cyc.sum((0, 1)), ours.sum((0, 1))
+            exact = exact_sum(model, light)
             noise = np.abs(halves[0].sum((0, 1)) / halves[1].sum((0, 1)) - 1) / 2  # of the mean of the two
             row = dict(material=", ".join(f"{k}={v}" for k, v in mat_in.items() if k != "parametrization"),
                        light=lname,
                        ours_over_cycles="/".join(f"{x:.4f}" for x in s_ours / s_cy),
                        mitsuba_over_cycles="" if mi is None else "/".join(f"{x:.4f}" for x in mi.sum((0, 1)) / s_cy),
-                       cycles_noise="/".join(f"{x:.4f}" for x in noise), cycles_s=round(t_cy, 1))
+                       cycles_noise="/".join(f"{x:.4f}" for x in noise), cycles_s=round(t_cy, 1),
+                       ours_over_exact="/".join(f"{x:.4f}" for x in s_ours / exact),
+                       cycles_over_exact="/".join(f"{x:.4f}" for x in s_cy / exact),
+                       mitsuba_over_exact="" if mi is None else "/".join(f"{x:.4f}" for x in mi.sum((0, 1)) / exact))
             rows.append(row)
             cached.append(dict(inputs=mat_in, light=lname, cycles_halves=[h.sum((0, 1)).tolist() for h in halves]))
             print(row, flush=True)
@@ -159,6 +179,34 @@ def main() -> None:
     ]
     lines += [f"| {r['material']} | {r['light']} | {r['ours_over_cycles']} | {r['mitsuba_over_cycles'] or '—'} | "
               f"{r['cycles_noise']} |" for r in rows]
+    lines += [
+        "",
+        "## Against the exact value",
+        "",
+        "What the image should sum to, computed without a renderer: ChiangHair's far field (its average over "
+        "h, exact I0) at 32 view directions per pixel column, times the fiber's width in pixels (`exact_sum`).",
+        "",
+        "| Blender inputs | light | hairshade / exact | Cycles / exact | Mitsuba / exact |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    lines += [f"| {r['material']} | {r['light']} | {r['ours_over_exact']} | {r['cycles_over_exact']} | "
+              f"{r['mitsuba_over_exact'] or '—'} |" for r in rows]
+    lines += [
+        "",
+        "What the differences are:",
+        "",
+        "- The rasterizer reads a fiber 1.3 pixels wide 0.3-0.6% dark on every case, both lights: its "
+        "geometry, not its shading (per-pixel and per-vertex shading give the same sums).",
+        "- Cycles is up to 1.5% below the exact value where β_m = 0.3 and the light is in front (R and TRT): "
+        "its I0 is a ten-term series (`bsdf_principled_hair_chiang.h`, `bessel_I0`) used below the asymptotic "
+        "switch at x = 12, and a variance v = 0.085 puts the R lobe's argument cos θi cos θo / v just under 12, "
+        "where ten terms fall 2% short. At β_m 0.2 (x above 12: the asymptotic form, the same in all) and "
+        "0.5 or 0.8 (x below 10: the series converges) Cycles is within 0.2% of the exact value. Mitsuba's "
+        "series has eleven terms: its share of the same gap is smaller.",
+        "- Left unexplained: the darkest fiber backlit, in blue (transmission through σa 4.4 per radius): the "
+        "rasterizer and Cycles agree (0.984 and 0.985 of the exact value) where Mitsuba is at 1.005; the far "
+        "field there equals the near field averaged over h (`tests/test_chiang_far.py`, test 05).",
+    ]
     with open(os.path.join(args.out, "cycles_fibers.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("wrote", os.path.join(args.out, "cycles_fibers.md"))

@@ -340,3 +340,17 @@ def test_18_subdivision_cap_warns(tmp_path):
         g = read_usd(path, tolerance=0.001)
     assert g.deviation > 0.0015 and any("fiber radii from the curve" in str(x.message) for x in w)
     assert os.path.exists(path)
+
+
+def test_19_bad_alembic_files(tmp_path):
+    """Through Blender: a file that is not Alembic, and a missing one, get
+    a GroomError naming the file."""
+    pytest.importorskip("bpy", reason="Alembic grooms are read through Blender (pip install 'hairshade[blender]')")
+    from hairshade.blender import read_alembic
+
+    junk = tmp_path / "junk.abc"
+    junk.write_bytes(b"not an alembic archive" * 10)
+    with pytest.raises(GroomError, match="junk.abc: (Blender cannot import it|no hair curves)"):
+        read_alembic(junk)
+    with pytest.raises(GroomError, match="no such file"):
+        read_alembic(tmp_path / "missing.abc")
