@@ -8,11 +8,10 @@ Blender's session) and path traces it on the CPU:
 - strands: a hair-curves object of round ("3D") curves carrying the
   Principled Hair BSDF, Chiang model, from the scene's :class:`ChiangHair`
   (Absorption Coefficient parametrization: the same σa, Roughness β_m,
-  Radial Roughness β_n, IOR η, Coat 0). Cycles interpolates Catmull-Rom
-  through the points it is given; it is given the same uniform B-spline as
-  the Mitsuba bridge's (the strand's vertices as control points, both ends
-  tripled), evaluated at ``curve_samples`` points a span, so that both
-  references trace the same curve;
+  Radial Roughness β_n, IOR η, Coat ``coat``). Cycles interpolates
+  Catmull-Rom through the points it is given; it is given the scene's
+  curve (:mod:`hairshade.curves`, as the Mitsuba bridge draws it) at
+  ``curve_samples`` points a span;
 - the tilt: Cycles' ``Offset`` leans R towards the root as ChiangHair's
   ``scale_tilt`` does (and Mitsuba's the other way; ``docs/tilt.md``
   measures all of them), so Offset is ``scale_tilt``;
@@ -55,34 +54,38 @@ def bspline_polyline(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray,
     """Each strand's uniform cubic B-spline (its vertices as control points,
     both ends tripled, as the Mitsuba bridge's ``bsplinecurve``) evaluated
     at ``samples`` points a span, and at its end: (points, radii, offsets)."""
-    B = np.array([[-1, 3, -3, 1], [3, -6, 3, 0], [-3, 0, 3, 0], [1, 4, 1, 0]], np.float64) / 6
+    from .curves import curve_points
+
+    return curve_points(points, radii, offsets, "bspline", samples)
+
+
+def _strand_polyline(scene: "Scene", samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points through which Cycles' Catmull-Rom interpolation draws the
+    scene's curve: the B-spline or Catmull-Rom spline at ``samples`` points a
+    span, or for a polyline each segment cut into ``samples`` equal pieces
+    (collinear points: straight between the vertices, rounded only at them)."""
+    from .curves import curve_points
+
+    curve = scene.curve[0]
+    if curve != "polyline":
+        return curve_points(scene.points, scene.radii, scene.offsets, curve, samples)
+    p, r = np.asarray(scene.points, np.float64), np.asarray(scene.radii, np.float64)
+    o = np.asarray(scene.offsets, np.int64)
+    seg = np.ones(len(p), bool)
+    seg[o[1:] - 1] = False
+    a = np.flatnonzero(seg)
     t = np.arange(samples) / samples
-    T = np.stack([t**3, t**2, t, np.ones_like(t)], axis=1) @ B  # (samples, 4) weights
-    o = np.asarray(offsets, np.int64)
+    q = (p[a][:, None] + (p[a + 1] - p[a])[:, None] * t[None, :, None]).reshape(-1, 3)
+    w = (r[a][:, None] + (r[a + 1] - r[a])[:, None] * t[None, :]).reshape(-1)
     n = np.diff(o)
-    # control points: every strand's vertices with both ends tripled
-    rep = np.ones(len(points), np.int64)
-    np.add.at(rep, o[:-1], 2)
-    np.add.at(rep, o[1:] - 1, 2)
-    idx = np.repeat(np.arange(len(points)), rep)
-    P = np.asarray(points, np.float64)[idx]
-    R = np.asarray(radii, np.float64)[idx]
-    starts = np.concatenate([[0], np.cumsum(n + 4)[:-1]])
-    spans = n + 1  # (n + 4) control points, n + 1 spans
-    s_first = np.repeat(starts, spans) + (np.arange(int(spans.sum())) - np.repeat(np.cumsum(spans) - spans, spans))
-    K = s_first[:, None] + np.arange(4)[None, :]
-    q = np.einsum("tj,sjk->stk", T, P[K]).reshape(-1, 3)
-    w = np.einsum("tj,sj->st", T, R[K]).reshape(-1)
-    # each strand's samples, then its end point
-    counts = spans * samples + 1
+    counts = (n - 1) * samples + 1
     out_p = np.empty((int(counts.sum()), 3))
     out_r = np.empty(int(counts.sum()))
-    off = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    off = np.concatenate([[0], np.cumsum(counts)])
     body = np.ones(len(out_r), bool)
     body[off[1:] - 1] = False
     out_p[body], out_r[body] = q, w
-    ends = starts + n + 3
-    out_p[~body], out_r[~body] = P[ends], R[ends]
+    out_p[~body], out_r[~body] = p[o[1:] - 1], r[o[1:] - 1]
     return out_p, out_r, off
 
 
@@ -114,7 +117,7 @@ def _hair_material(bpy: Any, model: Any, offset_sign: float) -> Any:
         "Absorption Coefficient": [float(x) for x in np.asarray(model.sigma_a)],
         "Roughness": float(p["longitudinal_roughness"]),
         "Radial Roughness": float(p["azimuthal_roughness"]),
-        "Coat": 0.0,
+        "Coat": float(p.get("coat", 0.0)),
         "IOR": float(p["eta"]),
         "Offset": math.radians(offset_sign * float(p["scale_tilt"])),
         "Random Color": 0.0,
@@ -180,7 +183,7 @@ def build(scene: "Scene", spp: int = 64, max_bounces: int = 64, seed: int = 0, t
     sc.camera = c
 
     if scene.strand_count:
-        p, r, o = bspline_polyline(scene.points, scene.radii, scene.offsets, curve_samples)
+        p, r, o = _strand_polyline(scene, curve_samples)
         cu = bpy.data.hair_curves.new("Strands")
         cu.add_curves(np.diff(o).tolist())
         cu.attributes["position"].data.foreach_set("vector", p.astype(np.float32).ravel())

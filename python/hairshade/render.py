@@ -109,18 +109,42 @@ def _render(scene: Scene, width: int | None, height: int | None, progress: bool 
     return (img, stats) if return_stats else img
 
 
+def _strands(scene: Scene, cam: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The strands the renderer draws: the scene's arrays, or its curves cut
+    for this camera (:mod:`hairshade.curves`), kept for the next frame of
+    the same camera and strands."""
+    from .curves import subdivide
+
+    curve, pixels = scene.curve
+    if curve == "polyline":
+        return scene.points, scene.radii, scene.offsets
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    for a in (scene.points, scene.radii, scene.offsets):
+        h.update(np.ascontiguousarray(a).view(np.uint8).reshape(-1))
+    key = (curve, pixels, repr(sorted(cam.items())), h.digest())
+    cached = getattr(scene, "_curve_cache", None)
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    arrays = subdivide(scene.points, scene.radii, scene.offsets, curve, cam, pixels)
+    scene._curve_cache = (key, arrays)  # type: ignore[attr-defined]
+    return arrays
+
+
 def _native_scene(scene: Scene, cam: dict[str, Any]) -> dict[str, Any]:
     """The scene as the flat arrays the renderer takes."""
     f32 = lambda a: np.ascontiguousarray(a, dtype=np.float32).reshape(-1)  # noqa: E731
     cards = scene.cards
     meshes = scene.obj_meshes
+    points, radii, offsets = _strands(scene, cam)
     return dict(
         camera=(cam["position"], cam["target"], cam["up"], cam["fov"], cam["width"], cam["height"]),
         lights=[(l["type"], light_vector(l), l["intensity"], l["shadows"]) for l in scene.lights],
         environment=None if scene.environment_sh is None else [float(x) for x in scene.environment_sh.reshape(-1)],
-        points=f32(scene.points),
-        radii=f32(scene.radii),
-        offsets=np.ascontiguousarray(scene.offsets, dtype=np.uint32),
+        points=f32(points),
+        radii=f32(radii),
+        offsets=np.ascontiguousarray(offsets, dtype=np.uint32),
         spheres=[(s["center"], s["radius"], s["albedo"]) for s in scene.spheres],
         hair=scene.hair._native,
         cards=None if cards is None else dict(

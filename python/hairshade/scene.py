@@ -36,6 +36,9 @@ A scene file::
   is text: one ``x y z r`` vertex per line, a blank line between strands,
   ``#`` comments) and ``generate`` (procedural: ``head``, ``bundle``, see
   :mod:`hairshade.generate`). Radius 0 is allowed and draws nothing.
+  ``hair.curve`` draws the strands as ``"polyline"`` (default),
+  ``"bspline"`` or ``"catmull_rom"``, optionally ``{"bspline": {"pixels":
+  4}}`` (:mod:`hairshade.curves`).
 - ``Scene.save`` writes a scene back (:mod:`hairshade.scene_save`).
 - Hair cards: ``cards`` (ribbons with an alpha texture, see
   :mod:`hairshade.cards`) and ``generate_cards`` (cards around a procedural
@@ -137,6 +140,9 @@ class Scene:
     hair: Any = field(init=False)  # KarisHair | ChiangHair | DEonHair
     cards: dict[str, Any] | None = field(default=None, init=False)
     obj_meshes: list[dict[str, Any]] = field(default_factory=list, init=False)
+    #: The strands' curve and its subdivision bound in pixels
+    #: (:mod:`hairshade.curves`): ("polyline" | "bspline" | "catmull_rom", pixels).
+    curve: tuple[str, float] = field(default=("polyline", 4.0), init=False)
 
     def __post_init__(self) -> None:
         self._build_hair()
@@ -205,6 +211,10 @@ class Scene:
                 _strand_arrays(self.points, self.radii, self.offsets)
             except SceneError as e:
                 raise SceneError(f"{c.source}: {e}") from None
+        if not (isinstance(self.curve, tuple) and len(self.curve) == 2):
+            c.fail("curve", f"expected (name, pixels), got {self.curve!r:.80}")
+        name, px = self.curve
+        self.curve = _parse_curve(c, {name: {"pixels": px}})
         if self.material != self._material_built:
             self._build_hair()
 
@@ -647,7 +657,8 @@ def _parse(d: Any, base_dir: str, source: str,
             c.fail(f"{p}.type", f"expected 'directional', 'point' or 'environment', got {kind!r}")
 
     hair = c.obj(d.get("hair", {}), "hair")
-    c.known(hair, "hair", {"strands", "file", "generate", "cards", "generate_cards", "material"})
+    c.known(hair, "hair", {"strands", "file", "generate", "cards", "generate_cards", "material", "curve"})
+    curve = _parse_curve(c, hair.get("curve", "polyline"))
     pts: list[np.ndarray] = []
     rads: list[np.ndarray] = []
     raw_strands = hair.get("strands", [])
@@ -728,11 +739,30 @@ def _parse(d: Any, base_dir: str, source: str,
     scene = Scene(camera, lights, env, points, radii, offsets, spheres, mat, render, source)
     scene.cards = cards
     scene.obj_meshes = obj_meshes
+    scene.curve = curve
     try:
         scene.options()  # every setting checked at load: applies here, in range
     except SceneError as e:
         raise SceneError(f"{c.source}: {e}") from None
     return scene
+
+
+def _parse_curve(c: _Ctx, v: Any) -> tuple[str, float]:
+    """``hair.curve``: a curve's name, or {name: {"pixels": bound}}."""
+    from .curves import CURVES, DEFAULT_PIXELS
+
+    if isinstance(v, dict):
+        if len(v) != 1:
+            c.fail("hair.curve", f"expected one of {', '.join(CURVES)} or {{name: {{\"pixels\": bound}}}}")
+        name, opts = next(iter(v.items()))
+        opts = c.obj(opts, f"hair.curve.{name}")
+        c.known(opts, f"hair.curve.{name}", {"pixels"})
+        pixels = c.num(opts.get("pixels", DEFAULT_PIXELS), f"hair.curve.{name}.pixels", 0.25, 1024)
+    else:
+        name, pixels = v, DEFAULT_PIXELS
+    if name not in CURVES:
+        c.fail("hair.curve", f"expected one of {', '.join(CURVES)}, got {name!r:.80}")
+    return str(name), float(pixels)
 
 
 def _read_obj(path: str, c: _Ctx, field_path: str) -> np.ndarray:

@@ -60,6 +60,8 @@ def scene_dict(scene: "Scene", stem: str, folder: str) -> dict[str, Any]:
         lights.append({"type": "environment", "sh": np.asarray(scene.environment_sh, np.float64).tolist()})
     d["lights"] = lights
     hair: dict[str, Any] = {"material": _plain(scene.material)}
+    if scene.curve != ("polyline", 4.0):
+        hair["curve"] = {scene.curve[0]: {"pixels": scene.curve[1]}}
     if scene.strand_count:
         name = f"{stem}.hair"
         write_hair(os.path.join(folder, name), scene.points, scene.radii, scene.offsets)

@@ -63,7 +63,7 @@ def scene_dict(scene: "Scene", strand_file: str, spp: int, integrator: str = "di
         hair_params = scene.hair.params if isinstance(scene.hair, ChiangHair) else chiang_params(scene.hair)
         hair_params = {k: v for k, v in hair_params.items() if k != "i0"}
     if scene.strand_count > 0:
-        pts, rad, off = _clamped_controls(scene.points, scene.radii, scene.offsets)
+        pts, rad, off = strand_controls(scene)
         write_strand_file(strand_file, pts, rad, off)
         d["hair"] = {"type": "bsplinecurve", "filename": strand_file, "bsdf": _curve_bsdf(scene, hair_bsdf, hair_params)}
     if scene.cards is not None:
@@ -170,6 +170,25 @@ class LoadedScene:
         t = time.perf_counter()
         img = np.array(mi.render(self.scene, spp=spp, seed=self.seed), dtype=np.float32)[..., :3]
         return img, time.perf_counter() - t
+
+
+def strand_controls(scene: "Scene") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ``bsplinecurve`` control points that draw the scene's curve
+    (:mod:`hairshade.curves`): for "bspline" the vertices with both ends
+    tripled; for "polyline" every vertex tripled (a uniform cubic B-spline
+    through three equal control points and the next three is the straight
+    segment between them: the polyline exactly, its tangent along each
+    segment); for "catmull_rom" the spline sampled at 16 steps a span,
+    drawn as that polyline (within 1/500 of a span's turning of the curve)."""
+    from ..curves import curve_points
+
+    curve = scene.curve[0]
+    if curve == "bspline":
+        return _clamped_controls(scene.points, scene.radii, scene.offsets)
+    p, r, o = curve_points(scene.points, scene.radii, scene.offsets, curve, 16) if curve == "catmull_rom" else \
+        (scene.points, scene.radii, scene.offsets)
+    idx = np.repeat(np.arange(len(p)), 3)
+    return p[idx], r[idx], np.asarray(o, np.int64) * 3
 
 
 def _clamped_controls(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray):
