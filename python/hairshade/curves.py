@@ -127,14 +127,25 @@ def curve_points(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray, cur
     n_strands = len(offsets) - 1
     last = np.r_[strand[1:] != strand[:-1], True] if len(strand) else np.zeros(0, bool)
     per = ns + last  # the last span of a strand also gives its end point
-    s_of = np.repeat(np.arange(len(ns)), per)
-    j = np.arange(int(per.sum())) - np.repeat(np.cumsum(per) - per, per)
-    t = j / ns[s_of]
-    T = np.stack([t**3, t**2, t, np.ones_like(t)], axis=1) @ B  # (M, 4) weights
-    K = first[s_of][:, None] + np.arange(4)[None, :]
-    out_p = np.einsum("mj,mjk->mk", T, P[K])
-    out_r = np.maximum(np.einsum("mj,mj->m", T, R[K]), 0.0)
-    counts = np.bincount(strand[s_of], minlength=n_strands)
+    start = np.cumsum(per) - per  # each span's first output point
+    out_p = np.empty((int(per.sum()), 3))
+    out_r = np.empty(int(per.sum()))
+    # spans grouped by their step count: one (steps x 4) @ (4 x spans) product a group
+    for n in np.unique(ns):
+        sel = np.flatnonzero(ns == n)
+        t = np.arange(n + 1) / n
+        T = np.stack([t**3, t**2, t, np.ones_like(t)], axis=1) @ B  # (n + 1, 4) weights
+        K = first[sel][:, None] + np.arange(4)[None, :]
+        gp = np.einsum("tj,sjk->stk", T, P[K])  # (spans, n + 1, 3)
+        gr = np.einsum("tj,sj->st", T, R[K])
+        rows = start[sel][:, None] + np.arange(n)[None, :]
+        out_p[rows] = gp[:, :n]
+        out_r[rows] = gr[:, :n]
+        ends = last[sel]
+        out_p[start[sel][ends] + n] = gp[ends, n]
+        out_r[start[sel][ends] + n] = gr[ends, n]
+    out_r = np.maximum(out_r, 0.0)
+    counts = np.bincount(strand, weights=per, minlength=n_strands).astype(np.int64)
     off = np.concatenate([[0], np.cumsum(counts)])
     if off[-1] >= 2**32:
         raise ValueError(f"curve: {off[-1]} points after subdivision, more than the 2^32 the renderer indexes")
