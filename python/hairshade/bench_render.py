@@ -201,15 +201,17 @@ def render_runtime_vs_error(fast: bool = False, repeats: int = 3, data_dir: str 
                             continue  # the Python BSDF plugin is slow: 64 spp is enough to bracket
                         # warm-up with these very settings: JIT compilation of the
                         # kernels (drjit may compile anew per spp and seed) is not counted
+                        # Mitsuba at its best: the B-spline of the vertices, as
+                        # the references (hairshade.mitsuba.LoadedScene)
                         hm.render(s, spp=spp, integrator="direct", width=w, height=h, seed=1, passes=1,
-                                  progress=False, hair_bsdf=bsdf)
+                                  progress=False, hair_bsdf=bsdf, curve="bspline")
                         # best of the repeats, as for the rasterizer (one render
                         # of a JIT-compiled kernel can catch the host's noise)
                         tm = math.inf
                         for _ in range(repeats):
                             timing: dict[str, float] = {}
                             m = hm.render(s, spp=spp, integrator="direct", width=w, height=h, seed=1, passes=1,
-                                          progress=False, hair_bsdf=bsdf, timing=timing)
+                                          progress=False, hair_bsdf=bsdf, timing=timing, curve="bspline")
                             tm = min(tm, timing["render_s"] * 1e3)  # scene loading not counted
                         em = rel_mse(m, ref)
                         pts.append((tm, em))
@@ -331,7 +333,8 @@ def _dense(fast: bool, repeats: int, data: str) -> list[dict[str, Any]]:
 
             s = Scene.from_dict(d)
             for spp in DENSE_SPP[:2] if fast else DENSE_SPP:
-                kw = dict(spp=spp, integrator="path", max_depth=64, width=w, height=h, seed=1, passes=1, progress=False)
+                kw = dict(spp=spp, integrator="path", max_depth=64, width=w, height=h, seed=1, passes=1, progress=False,
+                          curve="bspline")  # Mitsuba at its best, as the references
                 hm.render(s, **kw)  # warm-up: JIT compilation with these settings
                 tm = math.inf
                 for _ in range(repeats):
