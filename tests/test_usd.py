@@ -252,6 +252,7 @@ BAD = [
     # (name, points, counts, widths, extra, error)
     ("missing_widths", [[0, 0, 0], [0, 1, 0]], [2], None, dict(ctype="linear"), "no widths"),
     ("zero_length", [[0, 0, 0]] * 4, [4], [0.01] * 4, {}, "curve 0 has zero length"),
+    ("zero_length_linear", [[0, 1, 0], [0, 1, 0]], [2], [0.01] * 2, dict(ctype="linear"), "curve 0 has zero length"),
     ("nan_point", [[0, 0, 0], [0, np.nan, 0], [0, 2, 0], [0, 3, 0]], [4], [0.01] * 4, {}, r"point 1 \(curve 0\) is not finite"),
     ("count_mismatch", [[0, 0, 0], [0, 1, 0], [0, 2, 0]], [2, 2], [0.01] * 4, dict(ctype="linear"),
      "curveVertexCounts sum to 4 vertices, but it has 3 points"),

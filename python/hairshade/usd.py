@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from . import _extras, _memory
+from .curves import BSPLINE, CATMULL_ROM
 
 #: Most polyline segments one cubic span is cut into.
 MAX_SUBDIVISIONS = 64
@@ -61,8 +62,8 @@ MAX_SUBDIVISIONS = 64
 # Cubic basis matrices: a span is C(t) = [t^3, t^2, t, 1] B G over its 4
 # control points G.
 BASES = {
-    "bspline": np.array([[-1, 3, -3, 1], [3, -6, 3, 0], [-3, 0, 3, 0], [1, 4, 1, 0]], np.float64) / 6,
-    "catmullRom": np.array([[-1, 3, -3, 1], [2, -5, 4, -1], [-1, 0, 1, 0], [0, 2, 0, 0]], np.float64) / 2,
+    "bspline": BSPLINE,
+    "catmullRom": CATMULL_ROM,
     "bezier": np.array([[-1, 3, -3, 1], [3, -6, 3, 0], [-3, 3, 0, 0], [1, 0, 0, 0]], np.float64),
 }
 VSTEP = {"bspline": 1, "catmullRom": 1, "bezier": 3}
@@ -276,6 +277,11 @@ class _Curves:
         if len(points) != total:
             raise GroomError(f"{where}: curveVertexCounts sum to {total} vertices, but it has {len(points)} points")
         _finite(points, counts, where, "point")
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        ext = np.maximum.reduceat(points, starts) - np.minimum.reduceat(points, starts)
+        zero = np.flatnonzero(~np.any(ext > 0, axis=1))
+        if zero.size:  # no length and no tangent: nothing to draw or shade
+            raise GroomError(f"{where}: curve {int(zero[0])} has zero length (all its points coincide)")
         widths, kind, varying = _widths(p, bc, UsdGeom, tc, counts, ctype, basis, wrap, where, default_radius)
         return _Curves(points, counts, widths, kind, ctype, basis, wrap, varying)
 
@@ -488,12 +494,6 @@ def _evaluate(c: _Curves, tolerance: float, where: str) -> tuple[np.ndarray, np.
     rel = worst / np.where(rmin > 0, rmin, np.inf)
     dev = float(rel.max()) if len(rel) else 0.0
     counts = np.bincount(curve[s_of], minlength=len(c.counts))
-    # zero-length curves draw nothing and have no tangent: refused
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    ext = np.maximum.reduceat(P, starts) - np.minimum.reduceat(P, starts)
-    zero = np.flatnonzero(~np.any(ext > 0, axis=1))
-    if zero.size:
-        raise GroomError(f"{where}: curve {int(zero[0])} has zero length (all its points coincide)")
     return P, W, counts, dev, dev_abs
 
 
