@@ -108,6 +108,9 @@ QUALITIES: Tuple[str, ...] = get_args(Quality)
 
 class MlabOptions(TypedDict, total=False):
     layers: Annotated[int, Native("layers"), Doc("MLAB layers per pixel")]
+    format: Annotated[Literal["f32", "r11g11b10", "rgb9e5"], Native("layer_format"), Doc(
+        "how a layer is stored: f32 (20 bytes), or RE4's 64 bits: 16-bit depth and transmittance with "
+        "R11G11B10 or RGB9E5 colour (docs/packed_layers.md)")]
     cull_transmittance: Annotated[float, Native("hair_cull_transmittance"), Doc(
         "a pixel's hair behind the depth where its transmittance falls below this is skipped "
         "(at most this times its radiance is lost; 0: off)")]

@@ -8,6 +8,7 @@ use super::convert::{run_polling, to_numpy};
 use super::scene_args::{build_scene, SceneArgs};
 use crate::fiber::number_text;
 use crate::raster::lod::Lod;
+use crate::raster::pack::LayerFormat;
 use crate::raster::scene::{
     Backscatter, MultipleScattering, RenderOptions, Transparency, VolumeTransport,
 };
@@ -282,6 +283,11 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         _ => None,
     };
     let layers = r.int("layers", 4)? as usize;
+    let layer_format = match r.choice("layer_format", "f32", &["f32", "r11g11b10", "rgb9e5"])? {
+        "r11g11b10" => LayerFormat::R11G11B10,
+        "rgb9e5" => LayerFormat::Rgb9e5,
+        _ => LayerFormat::F32,
+    };
     let shading = r.choice("shading", "pixel", &["pixel", "split", "vertex"])?;
     let opts = RenderOptions {
         transparency: match transparency {
@@ -338,6 +344,7 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
             "hair_cull_transmittance",
             def.hair_cull_transmittance as f64,
         )? as f32,
+        layer_format,
     };
     r.finish()?;
     Ok((opts, (layers, samples)))
@@ -418,6 +425,14 @@ fn options_dict<'py>(
     d.set_item("near_field", o.near_field)?;
     d.set_item("environment_directions", o.environment_directions)?;
     d.set_item("hair_cull_transmittance", o.hair_cull_transmittance as f64)?;
+    d.set_item(
+        "layer_format",
+        match o.layer_format {
+            LayerFormat::F32 => "f32",
+            LayerFormat::R11G11B10 => "r11g11b10",
+            LayerFormat::Rgb9e5 => "rgb9e5",
+        },
+    )?;
     match o.lod {
         Lod::Auto => d.set_item("lod", "auto")?,
         Lod::Fraction(f) => d.set_item("lod", f as f64)?,

@@ -42,6 +42,7 @@ pub mod lod;
 pub mod memory;
 pub mod methods;
 pub mod oit;
+pub mod pack;
 pub mod samples;
 pub mod scene;
 pub mod setup;

@@ -1,7 +1,11 @@
 //! Order-independent transparency: Multi-Layer Alpha Blending (Salvi &
-//! Vaidyanathan 2014, as in Capcom's RE4 strand renderer) and the exact
-//! per-pixel sorted composite it approximates.
+//! Vaidyanathan 2014, as in Capcom's RE4 strand renderer), in f32 layers
+//! or packed into 64 bits ([`super::pack`]), and the exact per-pixel sorted
+//! composite it approximates.
 
+use super::pack::{
+    from_r11g11b10, from_rgb9e5, from_unorm16, r11g11b10, rgb9e5, unorm16, LayerFormat,
+};
 use glam::Vec3;
 
 /// A shaded, premultiplied fragment.
@@ -13,6 +17,13 @@ pub struct Fragment {
     /// 1 − coverage.
     pub transmittance: f32,
 }
+
+/// No layer: nothing seen, everything behind passes.
+const EMPTY: Fragment = Fragment {
+    depth: 0.0,
+    color: Vec3::ZERO,
+    transmittance: 1.0,
+};
 
 /// MLAB with `k` layers per pixel kept sorted by depth, for all pixels of
 /// a tile in one allocation (pixel `px` owns slots `px·(k+1) ..`); a
@@ -29,14 +40,9 @@ impl Mlab {
     /// Empty layers for `pixels` pixels; `k` in 1..=64.
     pub fn new(pixels: usize, k: usize) -> Self {
         let k = k.clamp(1, 64);
-        let empty = Fragment {
-            depth: 0.0,
-            color: Vec3::ZERO,
-            transmittance: 1.0,
-        };
         Self {
             k,
-            layers: vec![empty; pixels * (k + 1)],
+            layers: vec![EMPTY; pixels * (k + 1)],
             len: vec![0; pixels],
         }
     }
@@ -89,31 +95,144 @@ fn composite<'a>(frags: impl Iterator<Item = &'a Fragment>) -> (Vec3, f32) {
     (c, t)
 }
 
+/// MLAB with `k` layers per pixel stored in 64 bits each: a pixel's layers
+/// are unpacked, the fragment inserted and merged as by [`Mlab`], and the
+/// layers packed again (the round trip a GPU makes through its packed
+/// buffer). Depths are stored relative to the tile's hair depth range
+/// ([`Self::set_depth_range`]); fragments outside it are clamped to its
+/// ends.
+#[derive(Debug, Clone)]
+pub struct PackedMlab {
+    k: usize,
+    format: LayerFormat,
+    layers: Vec<u64>,
+    len: Vec<u8>,
+    z0: f32,
+    z_span: f32,
+}
+
+impl PackedMlab {
+    pub fn new(pixels: usize, k: usize, format: LayerFormat) -> Self {
+        let k = k.clamp(1, 64);
+        Self {
+            k,
+            format,
+            layers: vec![0; pixels * k],
+            len: vec![0; pixels],
+            z0: 0.0,
+            z_span: 1.0,
+        }
+    }
+
+    /// The depths the tile's fragments lie between.
+    pub fn set_depth_range(&mut self, near: f32, far: f32) {
+        self.z0 = near;
+        self.z_span = (far - near).max(f32::MIN_POSITIVE);
+    }
+
+    fn pack(&self, f: &Fragment) -> u64 {
+        let z = unorm16((f.depth - self.z0) / self.z_span) as u64;
+        let t = unorm16(f.transmittance) as u64;
+        let c = match self.format {
+            LayerFormat::Rgb9e5 => rgb9e5(f.color),
+            _ => r11g11b10(f.color),
+        } as u64;
+        z << 48 | t << 32 | c
+    }
+
+    fn unpack(&self, b: u64) -> Fragment {
+        let c = b as u32;
+        Fragment {
+            depth: self.z0 + from_unorm16((b >> 48) as u16) * self.z_span,
+            transmittance: from_unorm16((b >> 32) as u16),
+            color: match self.format {
+                LayerFormat::Rgb9e5 => from_rgb9e5(c),
+                _ => from_r11g11b10(c),
+            },
+        }
+    }
+
+    /// The layers of pixel `px`, nearest first, unpacked into `out`.
+    fn layers(&self, px: usize, out: &mut [Fragment; 65]) -> usize {
+        let n = self.len[px] as usize;
+        let base = px * self.k;
+        for (o, b) in out.iter_mut().zip(&self.layers[base..base + n]) {
+            *o = self.unpack(*b);
+        }
+        n
+    }
+
+    #[inline]
+    pub fn insert(&mut self, px: usize, f: Fragment) {
+        let mut slots = [EMPTY; 65];
+        let n = self.layers(px, &mut slots);
+        // the fragment as stored: its depth quantized like the layers'
+        let f = self.unpack(self.pack(&f));
+        let mut pos = n;
+        while pos > 0 && slots[pos - 1].depth > f.depth {
+            slots[pos] = slots[pos - 1];
+            pos -= 1;
+        }
+        slots[pos] = f;
+        let kept = if n + 1 > self.k {
+            let b = slots[n];
+            let a = &mut slots[n - 1];
+            a.color += b.color * a.transmittance;
+            a.transmittance *= b.transmittance;
+            n
+        } else {
+            n + 1
+        };
+        let base = px * self.k;
+        for (i, s) in slots[..kept].iter().enumerate() {
+            self.layers[base + i] = self.pack(s);
+        }
+        self.len[px] = kept as u8;
+    }
+
+    fn composite(&self, px: usize) -> (Vec3, f32) {
+        let mut slots = [EMPTY; 65];
+        let n = self.layers(px, &mut slots);
+        composite(slots[..n].iter())
+    }
+}
+
 /// A tile's per-pixel composite in the chosen transparency mode.
 pub enum Layers {
-    /// MLAB with a fixed number of layers per pixel.
+    /// MLAB with a fixed number of f32 layers per pixel.
     Mlab(Mlab),
+    /// MLAB with layers packed into 64 bits.
+    Packed(PackedMlab),
     /// Every fragment kept, sorted at resolve time.
     Sorted(Vec<Vec<Fragment>>),
 }
 
 impl Layers {
-    /// Empty layers for `pixels` pixels: MLAB with `k` layers, or sorted
-    /// lists when `k` is `None`.
-    pub fn new(pixels: usize, k: Option<usize>) -> Self {
-        match k {
-            Some(k) => Layers::Mlab(Mlab::new(pixels, k)),
-            None => Layers::Sorted(vec![Vec::new(); pixels]),
+    /// Empty layers for `pixels` pixels: MLAB with `k` layers in `format`,
+    /// or sorted lists when `k` is `None`.
+    pub fn new(pixels: usize, k: Option<usize>, format: LayerFormat) -> Self {
+        match (k, format) {
+            (Some(k), LayerFormat::F32) => Layers::Mlab(Mlab::new(pixels, k)),
+            (Some(k), f) => Layers::Packed(PackedMlab::new(pixels, k, f)),
+            (None, _) => Layers::Sorted(vec![Vec::new(); pixels]),
         }
     }
 
     /// Empties the layers for reuse by a tile of `pixels` pixels in mode
-    /// `k` (as [`Self::new`]); false when they were made for another mode
-    /// or size, and are to be made anew.
-    pub fn reset(&mut self, pixels: usize, k: Option<usize>) -> bool {
+    /// `k` and `format` (as [`Self::new`]); false when they were made for
+    /// another mode or size, and are to be made anew.
+    pub fn reset(&mut self, pixels: usize, k: Option<usize>, format: LayerFormat) -> bool {
         match (self, k) {
-            (Layers::Mlab(m), Some(k)) if m.k == k.clamp(1, 64) && m.len.len() == pixels => {
+            (Layers::Mlab(m), Some(k))
+                if format == LayerFormat::F32 && m.k == k.clamp(1, 64) && m.len.len() == pixels =>
+            {
                 // Only the first len[px] slots of a pixel are ever read.
+                m.len.fill(0);
+                true
+            }
+            (Layers::Packed(m), Some(k))
+                if m.format == format && m.k == k.clamp(1, 64) && m.len.len() == pixels =>
+            {
                 m.len.fill(0);
                 true
             }
@@ -136,7 +255,16 @@ impl Layers {
         };
         match self {
             Layers::Mlab(m) => m.insert(px, f),
+            Layers::Packed(m) => m.insert(px, f),
             Layers::Sorted(lists) => lists[px].push(f),
+        }
+    }
+
+    /// The depths the tile's fragments lie between (packed layers store
+    /// depth relative to them; the other modes ignore it).
+    pub fn set_depth_range(&mut self, near: f32, far: f32) {
+        if let Layers::Packed(m) = self {
+            m.set_depth_range(near, far);
         }
     }
 
@@ -145,6 +273,7 @@ impl Layers {
     pub fn composite(&mut self, px: usize) -> (Vec3, f32) {
         match self {
             Layers::Mlab(m) => composite(m.layers(px).iter()),
+            Layers::Packed(m) => m.composite(px),
             Layers::Sorted(lists) => {
                 let frags = &mut lists[px];
                 frags.sort_by(|a, b| a.depth.total_cmp(&b.depth));

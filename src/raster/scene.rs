@@ -286,6 +286,8 @@ pub struct RenderOptions {
     /// the depth where its transmittance falls below this is skipped (0:
     /// off; MLAB and sorted transparency).
     pub hair_cull_transmittance: f32,
+    /// How MLAB stores its layers ([`super::pack`]).
+    pub layer_format: super::pack::LayerFormat,
 }
 
 impl RenderOptions {
@@ -332,6 +334,7 @@ impl Default for RenderOptions {
             environment_directions: super::env_light::DIRECTIONS,
             lod: super::lod::Lod::default(),
             hair_cull_transmittance: 1e-3,
+            layer_format: super::pack::LayerFormat::F32,
         }
     }
 }

@@ -119,6 +119,7 @@ pub fn render_tile(
     );
     t.start_samples();
     t.start_hair_culling();
+    t.set_layer_depth_range(bins);
     t.strands(bins.segs, behind);
     t.cards(bins.cards, behind);
     t.shade_pending();
@@ -178,12 +179,12 @@ impl<'a> Tile<'a> {
         };
         let layers = match mem.layers.take() {
             Some(mut l) => {
-                if !l.reset(n, k) {
-                    l = Layers::new(n, k);
+                if !l.reset(n, k, ctx.opts.layer_format) {
+                    l = Layers::new(n, k, ctx.opts.layer_format);
                 }
                 l
             }
-            None => Layers::new(n, k),
+            None => Layers::new(n, k, ctx.opts.layer_format),
         };
         mem.pending.clear();
         Self {
@@ -210,6 +211,29 @@ impl<'a> Tile<'a> {
 
     /// Hair culling, once the opaque depth is known (on when the cutoff is
     /// positive, except with coverage samples, whose hair is opaque).
+    /// Packed MLAB layers store depth within the range of the tile's hair:
+    /// its segments' ends widened by their radii, and its card triangles.
+    fn set_layer_depth_range(&mut self, bins: &TileBins<'_>) {
+        if !matches!(self.layers, Layers::Packed(_)) {
+            return;
+        }
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for &si in bins.segs {
+            let s = &self.ctx.segs[si as usize];
+            lo = lo.min(s.za - s.ra).min(s.zb - s.rb);
+            hi = hi.max(s.za + s.ra).max(s.zb + s.rb);
+        }
+        for &ci in bins.cards {
+            for &z in &self.ctx.cards[ci as usize].z {
+                lo = lo.min(z);
+                hi = hi.max(z);
+            }
+        }
+        if lo <= hi {
+            self.layers.set_depth_range(lo, hi);
+        }
+    }
+
     fn start_hair_culling(&mut self) {
         let cutoff = self.ctx.opts.hair_cull_transmittance;
         if cutoff > 0.0 && self.samples.is_none() {
