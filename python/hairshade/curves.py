@@ -127,6 +127,14 @@ def curve_points(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray, cur
     n_strands = len(offsets) - 1
     last = np.r_[strand[1:] != strand[:-1], True] if len(strand) else np.zeros(0, bool)
     per = ns + last  # the last span of a strand also gives its end point
+    total = int(per.sum())
+    if total >= 2**32:
+        raise ValueError(f"curve: {total} points after subdivision, more than the 2^32 the renderer indexes")
+    from . import _memory
+
+    # the float64 output and one group's products (4 x 8 bytes of control
+    # weights a point, 32 of points and radii), then the float32 copies
+    _memory.check(total * 96, f"curve: cutting the strands into {total} points", "raise hair.curve's pixels")
     start = np.cumsum(per) - per  # each span's first output point
     out_p = np.empty((int(per.sum()), 3))
     out_r = np.empty(int(per.sum()))
@@ -147,8 +155,6 @@ def curve_points(points: np.ndarray, radii: np.ndarray, offsets: np.ndarray, cur
     out_r = np.maximum(out_r, 0.0)
     counts = np.bincount(strand, weights=per, minlength=n_strands).astype(np.int64)
     off = np.concatenate([[0], np.cumsum(counts)])
-    if off[-1] >= 2**32:
-        raise ValueError(f"curve: {off[-1]} points after subdivision, more than the 2^32 the renderer indexes")
     return out_p.astype(np.float32), out_r.astype(np.float32), off.astype(np.uint32)
 
 
