@@ -292,10 +292,16 @@ def _models(fast: bool, repeats: int) -> list[dict[str, Any]]:
 
 DENSE_SCENES = ("auburn_key", "blond_back", "black_top", "brown_side", "blond_env", "ginger_two")
 DENSE_SPP = (1, 4, 16, 64)
-# The rasterizer's configurations on the dense heads: its defaults, and the
-# most accurate one of docs/dense_hair.md.
+# The rasterizer's configurations on the dense heads: its defaults (MLAB, 8
+# f32 layers), the same layers packed into 64 bits (docs/packed_layers.md),
+# the strands drawn as the references' B-spline (docs/curves.md; "hair_curve"
+# goes to the scene's hair.curve), and the most accurate one of
+# docs/dense_hair.md.
 DENSE_CONFIGS: dict[str, dict[str, Any]] = {
     "default": {},
+    "mlab 8 rgb9e5": dict(transparency={"mlab": {"layers": 8, "format": "rgb9e5"}}),
+    "mlab 8 r11g11b10": dict(transparency={"mlab": {"layers": 8, "format": "r11g11b10"}}),
+    "bspline 8 px": dict(hair_curve={"bspline": {"pixels": 8}}),
     "coverage 64+dual+traced": dict(
         transparency="coverage", samples=64, multiple_scattering="dual", shadow_model="traced"
     ),
@@ -322,6 +328,9 @@ def _dense(fast: bool, repeats: int, data: str) -> list[dict[str, Any]]:
             ref = ref.reshape(h, 2, w, 2, 3).mean(axis=(1, 3))
         for label, opts in DENSE_CONFIGS.items():
             dd = copy.deepcopy(d)
+            opts = dict(opts)
+            if "hair_curve" in opts:
+                dd["hair"]["curve"] = opts.pop("hair_curve")
             dd["render"].update(opts)
             s = Scene.from_dict(dd)
             img = render(s, w, h, progress=False)
