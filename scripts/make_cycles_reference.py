@@ -4,6 +4,8 @@ their mean written as the reference, and what it took.
     python scripts/make_cycles_reference.py tests/data/dense/auburn_key.json \
         tests/data/cycles/auburn_key.exr --spp 1024 [--bounces 64]
 
+The strands are drawn as the B-spline of their vertices unless ``--curve``
+says otherwise: the Mitsuba references in tests/data were made that way.
 Writes OUT (the mean of the halves, float32 RGB) and OUT with ``.json``
 instead of ``.exr``: spp per half, bounces, Blender's version, the CPU,
 the seconds each half took, the halves' relMSE (the reference's own noise)
@@ -28,6 +30,9 @@ def main() -> None:
     ap.add_argument("--spp", type=int, default=1024, help="samples per pixel of each half")
     ap.add_argument("--bounces", type=int, default=64)
     ap.add_argument("--seeds", type=int, nargs=2, default=[1, 2])
+    ap.add_argument("--curve", choices=["scene", "polyline", "bspline", "catmull_rom"], default="bspline",
+                    help="how the strands are drawn (default bspline: the B-spline of the vertices, as the Mitsuba "
+                         "references of tests/data were made; scene: the scene's hair.curve)")
     args = ap.parse_args()
     import bpy
 
@@ -35,6 +40,8 @@ def main() -> None:
     from hairshade.demo import cpu_name
 
     scene = hs.Scene.load(args.scene)
+    if args.curve != "scene":
+        scene.curve = (args.curve, scene.curve[1])
     halves, seconds = [], []
     for seed in args.seeds:
         t: dict[str, float] = {}
@@ -45,7 +52,7 @@ def main() -> None:
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     hs.write_exr(args.out, mean)
     info = dict(scene=os.path.relpath(args.scene, os.path.dirname(os.path.abspath(args.out))), spp_per_half=args.spp,
-                seeds=args.seeds, bounces=args.bounces, blender=bpy.app.version_string, cpu=cpu_name(),
+                seeds=args.seeds, bounces=args.bounces, curve=scene.curve[0], blender=bpy.app.version_string, cpu=cpu_name(),
                 seconds_per_half=seconds, halves_rel_mse=float(hs.rel_mse(halves[0], halves[1])),
                 mean_rgb=[float(x) for x in mean.reshape(-1, 3).mean(0)],
                 halves_mean_rgb=[[float(x) for x in h.reshape(-1, 3).mean(0)] for h in halves])
