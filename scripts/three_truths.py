@@ -193,7 +193,8 @@ def main() -> None:
         "relMSE between a reference's two halves. The ratios' own noise: Cycles' two halves' means differ by "
         + ", ".join(f"{100 * r['cycles_halves_mean_spread']:.2f}% ({r['head']})" for r in rows
                     if r["cycles_halves_mean_spread"] == r["cycles_halves_mean_spread"])
-        + " (the other heads' halves were not kept).",
+        + ("." if all(r["cycles_halves_mean_spread"] == r["cycles_halves_mean_spread"] for r in rows)
+           else " (the other heads' halves were not kept)."),
         "",
         "| head | Cycles / Mitsuba | relMSE (Cycles noise, Mitsuba noise) | accurate / Mitsuba | accurate / Cycles "
         "| accurate relMSE vs Mitsuba, vs Cycles | Cycles s (2 cores) | overlap |",
