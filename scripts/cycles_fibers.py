@@ -90,8 +90,6 @@ def cycles_fiber(bpy, scene: hs.Scene, inputs: dict, spp: int, seed: int) -> np.
     """Cycles' image with the Principled Hair node set from Blender inputs
     (not from hairshade's conversion)."""
     from hairshade import cycles
-    from hairshade.render import read_exr
-    import tempfile
 
     sc = cycles.build(scene, spp=spp, max_bounces=0, seed=seed)
     node = next(n for m in bpy.data.materials if m.name.startswith("Hair")
@@ -108,15 +106,7 @@ def cycles_fiber(bpy, scene: hs.Scene, inputs: dict, spp: int, seed: int) -> np.
         if sock.name in values:
             v = values[sock.name]
             sock.default_value = list(v) + [1.0] * (len(sock.default_value) - len(v)) if isinstance(v, tuple) else v
-    with tempfile.TemporaryDirectory() as tmp:
-        out = os.path.join(tmp, "c.exr")
-        if hasattr(sc.render.image_settings, "media_type"):
-            sc.render.image_settings.media_type = "IMAGE"
-        sc.render.image_settings.file_format = "OPEN_EXR"
-        sc.render.image_settings.color_depth = "32"
-        sc.render.filepath = out
-        bpy.ops.render.render(write_still=True)
-        return read_exr(out)
+    return cycles.render_built(sc)
 
 
 def main() -> None:

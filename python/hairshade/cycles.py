@@ -284,9 +284,6 @@ def render(scene: "Scene", spp: int = 64, max_bounces: int = 64, seed: int = 0, 
     module docs). ``max_bounces`` 0 gives direct light only (Mitsuba's
     ``max_depth`` 2). ``timing``, when given, receives ``build_s`` and
     ``render_s``."""
-    bpy = _extras.require("bpy", "rendering with Cycles")
-    from .render import read_exr
-
     if isinstance(spp, bool) or not isinstance(spp, int) or spp < 1:
         raise ValueError(f"spp: expected a whole number >= 1, got {spp!r:.80}")
     if isinstance(max_bounces, bool) or not isinstance(max_bounces, int) or not 0 <= max_bounces <= 1024:
@@ -294,6 +291,19 @@ def render(scene: "Scene", spp: int = 64, max_bounces: int = 64, seed: int = 0, 
     t0 = time.perf_counter()
     sc = build(scene, spp, max_bounces, seed, threads, curve_samples, width, height, offset_sign)
     t1 = time.perf_counter()
+    img = render_built(sc)
+    if timing is not None:
+        timing["build_s"] = t1 - t0
+        timing["render_s"] = time.perf_counter() - t1
+    return img
+
+
+def render_built(sc: Any) -> np.ndarray:
+    """Renders the Blender scene :func:`build` made (perhaps edited since)
+    -> (H, W, 3) float32, linear, through a float RGB EXR."""
+    bpy = _extras.require("bpy", "rendering with Cycles")
+    from .render import read_exr
+
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "cycles.exr")
         if hasattr(sc.render.image_settings, "media_type"):
@@ -303,8 +313,4 @@ def render(scene: "Scene", spp: int = 64, max_bounces: int = 64, seed: int = 0, 
         sc.render.image_settings.color_depth = "32"
         sc.render.filepath = out
         bpy.ops.render.render(write_still=True)
-        img = read_exr(out)
-    if timing is not None:
-        timing["build_s"] = t1 - t0
-        timing["render_s"] = time.perf_counter() - t1
-    return img
+        return read_exr(out)
