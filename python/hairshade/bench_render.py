@@ -295,13 +295,17 @@ DENSE_SPP = (1, 4, 16, 64)
 # The rasterizer's configurations on the dense heads: its defaults (MLAB, 8
 # f32 layers), the same layers packed into 64 bits (docs/packed_layers.md),
 # the strands drawn as the references' B-spline (docs/curves.md; "hair_curve"
-# goes to the scene's hair.curve), and the most accurate one of
+# goes to the scene's hair.curve), guide-strand lighting, and the most accurate one of
 # docs/dense_hair.md.
 DENSE_CONFIGS: dict[str, dict[str, Any]] = {
     "default": {},
     "mlab 8 rgb9e5": dict(transparency={"mlab": {"layers": 8, "format": "rgb9e5"}}),
     "mlab 8 r11g11b10": dict(transparency={"mlab": {"layers": 8, "format": "r11g11b10"}}),
     "bspline 8 px": dict(hair_curve={"bspline": {"pixels": 8}}),
+    # a tenth of the strands lit, the rest taking their guides' lighting
+    # (docs/guides.md): everything, as RE4's prototype, or only the scattered terms
+    "guides 1/10 all": dict(guides=0.1, guide_terms="all"),
+    "guides 1/10 scattered": dict(guides=0.1),
     "coverage 64+dual+traced": dict(
         transparency="coverage", samples=64, multiple_scattering="dual", shadow_model="traced"
     ),

@@ -81,6 +81,7 @@ class Context:
     transparency: str
     shadows: str
     multiple_scattering: str
+    shading: str = "pixel"
 
     @property
     def environment_as_lights(self) -> bool:
@@ -96,6 +97,11 @@ _GRID = Applies(
 _ENV = Applies(lambda c: c.environment_as_lights,
                "the environment is not shaded as lights here: it applies to a scene with an environment light "
                "and ChiangHair, DEonHair, or dual scattering")
+_GUIDES = Applies(lambda c: c.shading in ("vertex", "split"),
+                  "nothing is shaded at vertices: it applies with shading 'vertex' or 'split'")
+_GUIDE_TERMS = Applies(lambda c: c.shading == "vertex",
+                       "under shading 'split' a strand takes only the terms read at vertices from its guides: it "
+                       "applies with shading 'vertex'")
 _CULL = Applies(lambda c: c.model == "karis" and c.multiple_scattering not in ("dual", "volume"),
                 "light culling applies to KarisHair without dual or volume scattering")
 
@@ -237,6 +243,16 @@ class RenderSettings(TypedDict, total=False):
         "vertex: everything per vertex")]
     lod: Annotated[Union[float, Literal["auto"]], Native("lod"), Doc(
         "the fraction of the strands drawn, each wider by its inverse, or 'auto' (from their width on screen)")]
+    guides: Annotated[float, Native("guide_fraction"), _GUIDES, Doc(
+        "guide-strand lighting: the fraction of the strands shaded at their vertices (the guides); every other "
+        "strand takes its vertices' values from its 3 nearest guides at the same fraction of their length "
+        "(1: every strand shaded; docs/guides.md)")]
+    guide_choice: Annotated[Literal["every", "clusters"], Native("guide_choice"), _GUIDES, Doc(
+        "which strands guide: every k-th, or the strand nearest each centre of k-means clusters of the strands")]
+    guide_terms: Annotated[Literal["scattered", "all"], Native("guide_terms"), _GUIDE_TERMS, Doc(
+        "under shading 'vertex', what a strand takes from its guides: scattered: the environment and multiple "
+        "scattering, each vertex shading its lights' unscattered light with its own shadow; all: everything "
+        "(RE4; darker where the guides lie deeper in a shadowed head)")]
     density_resolution: Annotated[int, Native("density_resolution"), _GRID, Doc(
         "voxels along the longest side of the hair's bounds in the fiber density grid")]
     environment_directions: Annotated[int, Native("environment_directions"), _ENV, Doc(
@@ -494,7 +510,7 @@ def resolve(settings: Mapping[str, Any], model: str, environment: bool) -> Dict[
         else:
             chosen[group] = (pm, popts, {})
     ctx = Context(model, environment, chosen["transparency"][0], chosen["shadows"][0],
-                  chosen["multiple_scattering"][0])
+                  chosen["multiple_scattering"][0], s.get("shading", preset.get("shading", "pixel")))
     native: Dict[str, Any] = {}
     for group, (method, popts, uopts) in chosen.items():
         allowed, why = _METHOD_MODELS.get((group, method), (lambda m: True, ""))

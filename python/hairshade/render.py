@@ -64,7 +64,7 @@ def render(
     equals writing it in the scene's ``render`` section: ``quality``
     ("fast", "balanced" (default), "accurate"), ``transparency``,
     ``shadows``, ``multiple_scattering`` (a method's name, or
-    ``{method: {options}}``), ``shading``, ``lod``,
+    ``{method: {options}}``), ``shading``, ``lod``, ``guides``, ``guide_choice``,
     ``density_resolution``, ``environment_directions``,
     ``light_cull_threshold``, ``background``. For example
     ``render(scene, quality="accurate")`` or

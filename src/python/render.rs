@@ -7,6 +7,7 @@
 use super::convert::{run_polling, to_numpy};
 use super::scene_args::{build_scene, SceneArgs};
 use crate::fiber::number_text;
+use crate::raster::guides::{GuideChoice, GuideTerms, Guides};
 use crate::raster::lod::Lod;
 use crate::raster::pack::LayerFormat;
 use crate::raster::scene::{
@@ -163,6 +164,23 @@ impl<'py> OptionReader<'_, 'py> {
         }
     }
 
+    /// A number in (0, 1] (default 1): a fraction of the strands.
+    fn fraction(&mut self, key: &'static str) -> PyResult<f32> {
+        let Some(v) = self.get(key)? else {
+            return Ok(1.0);
+        };
+        match number(&v) {
+            Some(x) if x > 0.0 && x <= 1.0 && (x as f32) > 0.0 => Ok(x as f32),
+            _ => Err(err(
+                key,
+                format!(
+                    "expected a fraction of the strands in (0, 1], got {}",
+                    repr(&v)
+                ),
+            )),
+        }
+    }
+
     /// A `ValueError` naming the first key that was not read.
     fn finish(self) -> PyResult<()> {
         for k in self.d.keys() {
@@ -224,7 +242,7 @@ fn range(key: &str) -> (f64, f64) {
         "density_resolution" => int(RenderOptions::DENSITY_RESOLUTION),
         "environment_directions" => int(crate::raster::env_light::DIRECTIONS_RANGE),
         "dual_forward_density" | "dual_back_density" | "hair_cull_transmittance" => (0.0, 1.0),
-        "lod" => (0.0, 1.0),
+        "lod" | "guide_fraction" => (0.0, 1.0),
         "volume_resolution" => int(crate::raster::volume::RESOLUTION),
         "volume_photons" => int(crate::raster::volume::PHOTONS),
         "volume_bins" => int(crate::raster::volume::BINS),
@@ -234,7 +252,8 @@ fn range(key: &str) -> (f64, f64) {
 }
 
 /// The numeric render options' ranges: name -> (lowest, highest), both
-/// inclusive (`lod` excludes 0; `f64::MAX` stands for no bound).
+/// inclusive (`lod` and `guide_fraction` exclude 0; `f64::MAX` stands for
+/// no bound).
 #[pyfunction]
 pub fn render_option_ranges(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
@@ -251,6 +270,7 @@ pub fn render_option_ranges(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         "hair_cull_transmittance",
         "light_cull_threshold",
         "lod",
+        "guide_fraction",
         "volume_resolution",
         "volume_photons",
         "volume_bins",
@@ -340,6 +360,17 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
             .int("environment_directions", def.environment_directions as i64)?
             as usize,
         lod: r.lod("lod")?,
+        guides: Guides {
+            fraction: r.fraction("guide_fraction")?,
+            choice: match r.choice("guide_choice", "every", &["every", "clusters"])? {
+                "clusters" => GuideChoice::Clusters,
+                _ => GuideChoice::Every,
+            },
+            terms: match r.choice("guide_terms", "scattered", &["scattered", "all"])? {
+                "all" => GuideTerms::All,
+                _ => GuideTerms::Scattered,
+            },
+        },
         hair_cull_transmittance: r.num(
             "hair_cull_transmittance",
             def.hair_cull_transmittance as f64,
@@ -437,6 +468,21 @@ fn options_dict<'py>(
         Lod::Auto => d.set_item("lod", "auto")?,
         Lod::Fraction(f) => d.set_item("lod", f as f64)?,
     }
+    d.set_item("guide_fraction", o.guides.fraction as f64)?;
+    d.set_item(
+        "guide_choice",
+        match o.guides.choice {
+            GuideChoice::Every => "every",
+            GuideChoice::Clusters => "clusters",
+        },
+    )?;
+    d.set_item(
+        "guide_terms",
+        match o.guides.terms {
+            GuideTerms::All => "all",
+            GuideTerms::Scattered => "scattered",
+        },
+    )?;
     Ok(d)
 }
 
@@ -534,6 +580,9 @@ pub fn render<'py>(
     d.set_item("shadow_maps_skipped", stats.shadow_maps_skipped)?;
     d.set_item("lod_fraction", stats.lod_fraction as f64)?;
     d.set_item("strands_drawn", stats.strands_drawn)?;
+    d.set_item("guide_strands", stats.guide_strands)?;
+    d.set_item("guides_ms", stats.guides_ms)?;
+    d.set_item("vertex_ms", stats.vertex_ms)?;
     d.set_item("setup_ms", stats.setup_ms)?;
     d.set_item("tiles_ms", stats.tiles_ms)?;
     d.set_item("total_ms", stats.total_ms)?;

@@ -14,7 +14,7 @@
 //!    be invisible;
 //! 3. [`setup`]: strands cut into segments, clipped to the near plane and
 //!    projected; [`cull`]: frustum culling; [`shade`]: per-vertex shading
-//!    when it is on;
+//!    when it is on, at every strand or at the [`guides`];
 //! 4. [`bin`]: segments, card triangles and mesh triangles (after
 //!    back-face culling) binned to 16×16 tiles, in scene order;
 //! 5. [`tile`], in parallel: opaque pass (background or environment,
@@ -37,6 +37,7 @@ pub mod coverage;
 pub mod cull;
 pub mod density;
 pub mod env_light;
+pub mod guides;
 pub mod lighting;
 pub mod lod;
 pub mod memory;
@@ -108,6 +109,14 @@ pub struct RenderStats {
     /// The fraction of the strands drawn ([`lod`]) and their number.
     pub lod_fraction: f32,
     pub strands_drawn: usize,
+    /// Guide-strand lighting ([`guides`]): the guide strands (0 when off),
+    /// and the wall time of choosing them and the taps (about 0 when the
+    /// last render's are reused), in milliseconds.
+    pub guide_strands: usize,
+    pub guides_ms: f64,
+    /// Wall time of per-vertex shading (`vertex` shading; at the guides
+    /// and gathered, with guide-strand lighting), in milliseconds.
+    pub vertex_ms: f64,
     /// Wall time of the phases, in milliseconds: shadow maps, setup
     /// (per-vertex shading when on, projection, binning), tiles
     /// (rasterization, shading, resolve), and the whole render.
@@ -237,9 +246,13 @@ pub fn render_with_progress(
     } else {
         None
     };
+    let tg = std::time::Instant::now();
+    let guide_map = guide_map(scene, opts, geometry);
+    stats.guide_strands = guide_map.as_ref().map_or(0, |g| g.guides.len());
+    stats.guides_ms = ms(tg);
     let shader = Shader::new(scene, &shadows, lit, Some(cancel), opts)
         .with_sphere_bounce(opts)
-        .with_vertex_terms(volume, &world, view.eye);
+        .with_vertex_terms(volume, &world, view.eye, guide_map.clone());
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();
@@ -247,15 +260,30 @@ pub fn render_with_progress(
         segs = cull::frustum(segs, grid);
     }
     if opts.vertex_shading {
+        let tv = std::time::Instant::now();
         let used = opts
             .frustum_culling
             .then(|| vertices_used(&segs, scene.strands.points.len()));
-        stats.vertices_shaded = used.as_ref().map_or(scene.strands.points.len(), |u| {
-            u.iter().filter(|&&x| x).count()
-        });
-        let colors = shade::shade_vertices(scene, &shader, view.eye, used.as_deref());
+        let all_from_guides = guide_map
+            .as_ref()
+            .filter(|_| opts.guides.terms == guides::GuideTerms::All);
+        let colors = match all_from_guides {
+            Some(g) => {
+                let needed = g.needed(used.as_deref());
+                stats.vertices_shaded = needed.iter().filter(|&&x| x).count();
+                let at_guides = shade::shade_vertices(scene, &shader, view.eye, Some(&needed));
+                gather_from_guides(g, &at_guides, used.as_deref())
+            }
+            None => {
+                stats.vertices_shaded = used.as_ref().map_or(scene.strands.points.len(), |u| {
+                    u.iter().filter(|&&x| x).count()
+                });
+                shade::shade_vertices(scene, &shader, view.eye, used.as_deref())
+            }
+        };
         setup::color_segments(&mut segs, &colors);
         shade_clipped_ends(&mut segs, &shader, view.eye);
+        stats.vertex_ms = ms(tv);
     }
 
     // 4. Cards and meshes; binning.
@@ -382,6 +410,47 @@ fn shade_clipped_ends(segs: &mut [setup::Segment], shader: &Shader<'_>, eye: gla
         s.ca = ca.unwrap_or(s.ca);
         s.cb = cb.unwrap_or(s.cb);
     }
+}
+
+/// The guide map of guide-strand lighting, when it is on and something is
+/// shaded at vertices (`vertex` or `split` shading): cached per geometry
+/// while shadow maps are (`geometry`: [`shadow::geometry_hash`], or 0 when
+/// the render does not reuse).
+fn guide_map(scene: &Scene, opts: &RenderOptions, geometry: u64) -> Option<Arc<guides::GuideMap>> {
+    if !opts.guides.on() || !(opts.vertex_shading || opts.split_shading) {
+        return None;
+    }
+    Some(if opts.reuse_shadow_maps {
+        let geometry = if geometry != 0 {
+            geometry
+        } else {
+            shadow::geometry_hash(scene)
+        };
+        guides::GuideMap::cached(&scene.strands, opts.guides, geometry)
+    } else {
+        Arc::new(guides::GuideMap::new(&scene.strands, opts.guides))
+    })
+}
+
+/// Per vertex where `used` is set (all when `None`), the radiance gathered
+/// from the guides' vertices (`at_guides`); 0 elsewhere.
+fn gather_from_guides(
+    g: &guides::GuideMap,
+    at_guides: &[glam::Vec3],
+    used: Option<&[bool]>,
+) -> Vec<glam::Vec3> {
+    pool().install(|| {
+        (0..at_guides.len())
+            .into_par_iter()
+            .map(|i| {
+                if used.is_some_and(|u| !u[i]) {
+                    glam::Vec3::ZERO
+                } else {
+                    g.gather(i, |j| at_guides[j])
+                }
+            })
+            .collect()
+    })
 }
 
 /// Which strand vertices the segments use (for per-vertex shading).

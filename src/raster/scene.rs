@@ -288,6 +288,10 @@ pub struct RenderOptions {
     pub hair_cull_transmittance: f32,
     /// How MLAB stores its layers ([`super::pack`]).
     pub layer_format: super::pack::LayerFormat,
+    /// Guide-strand lighting ([`super::guides`]): under `vertex` or
+    /// `split` shading, what is computed at vertices is computed at the
+    /// guides' alone.
+    pub guides: super::guides::Guides,
 }
 
 impl RenderOptions {
@@ -335,6 +339,7 @@ impl Default for RenderOptions {
             lod: super::lod::Lod::default(),
             hair_cull_transmittance: 1e-3,
             layer_format: super::pack::LayerFormat::F32,
+            guides: super::guides::Guides::default(),
         }
     }
 }

@@ -184,7 +184,13 @@ impl<'a> Shader<'a> {
             near: m.near_field,
             bounce: None,
             volume: None,
-            split: opts.split_shading && !opts.vertex_shading,
+            // (vertex shading with guides that give the scattered terms:
+            // the lights' unscattered light per vertex, the rest gathered)
+            split: if opts.vertex_shading {
+                opts.guides.on() && opts.guides.terms == super::guides::GuideTerms::Scattered
+            } else {
+                opts.split_shading
+            },
             at_vertices: None,
             cancel,
             f_max,
@@ -215,11 +221,14 @@ impl<'a> Shader<'a> {
     /// strands at their vertices as seen from `eye`, once per render, and
     /// interpolated along each segment (`segments`, the world segments of
     /// the scene's strands, which the fibers index); on cards at the point.
+    /// Under `split`, with `guides`, the strands' vertex terms are computed
+    /// at the guide strands alone and gathered from them.
     pub fn with_vertex_terms(
         mut self,
         volume: Option<Arc<super::volume::VolumeRadiance>>,
         segments: &'a [super::setup::WorldSegment],
         eye: Vec3,
+        guides: Option<Arc<super::guides::GuideMap>>,
     ) -> Self {
         self.volume = volume;
         if self.volume.is_some() || self.split {
@@ -227,6 +236,7 @@ impl<'a> Shader<'a> {
                 segments,
                 &self.scene.strands,
                 eye,
+                guides.filter(|_| self.split),
             ));
         }
         self

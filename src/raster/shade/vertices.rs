@@ -29,10 +29,15 @@ pub fn shade_vertices(
         let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
         (b - a).normalize_or_zero()
     };
-    let fiber = |i: usize| Fiber {
-        radius: st.radii[i],
-        strand: owner[i] as u32,
-        segment: (i - owner[i]) as u32,
+    // The segment starting at the vertex (at the tip, the strand's last one).
+    let fiber = |i: usize| {
+        let s = owner[i];
+        let last = (st.offsets[s + 1] as usize).max(st.offsets[s] as usize + 2) - 2;
+        Fiber {
+            radius: st.radii[i],
+            strand: s as u32,
+            segment: (i.min(last) - s) as u32,
+        }
     };
     // The vertices to shade, as indices into the strands' points.
     let index: Vec<usize> = match needed {
