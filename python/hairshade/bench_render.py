@@ -518,30 +518,45 @@ def read_csv(path: str) -> list[dict[str, Any]]:
 
 
 def plot(rows: list[dict[str, Any]], path: str, dpi: int = 130) -> None:
-    """Left: time against error per scene (Mitsuba's spp sweep as a line,
-    the rasterizer as a star). Right: ms/frame against strand count."""
+    """Left: time against error per scene (a colour each: Mitsuba's spp
+    sweep as a line, the rasterizer's configurations as markers, a shape
+    each). Middle: ms/frame against strand count. Right: the level of
+    detail's time against error."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(16, 4.5))
+    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(18, 5.5))
     scenes = sorted({r["scene"] for r in rows if r["section"] in ("error", "mitsuba")})
+    configs: list[str] = []
+    for r in rows:
+        if r["section"] == "error" and r["variant"] not in configs:
+            configs.append(r["variant"])
+    markers = "*sDv^<>ph8"
+    handles = []
     for k, name in enumerate(scenes):
-        color = f"C{k}"
+        color = f"C{k % 10}"
         m = [r for r in rows if r["section"] == "mitsuba" and r["scene"] == name]
         if m:
-            ax.plot([r["ms"] for r in m], [r["rel_mse"] for r in m], "o-", color=color, ms=3, label=f"Mitsuba {name}")
+            ax.plot([r["ms"] for r in m], [r["rel_mse"] for r in m], "o-", color=color, ms=3)
             for r in m:
                 ax.annotate(f"{r['spp']}", (r["ms"], r["rel_mse"]), fontsize=6, xytext=(2, 2), textcoords="offset points")
         for r in rows:
             if r["section"] == "error" and r["scene"] == name:
-                ax.plot(r["ms"], r["rel_mse"], "*", color=color, ms=12, label=f"rasterizer {name}")
+                mk = markers[configs.index(r["variant"]) % len(markers)]
+                ax.plot(r["ms"], r["rel_mse"], mk, color=color, ms=8 if mk == "*" else 5)
+        handles.append(Line2D([], [], color=color, marker="o", ms=3, label=name))
+    for j, c in enumerate(configs):
+        mk = markers[j % len(markers)]
+        handles.append(Line2D([], [], color="0.3", marker=mk, ls="", ms=8 if mk == "*" else 5, label=c))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("ms per frame (reference resolution)")
     ax.set_ylabel("relMSE vs converged Mitsuba (same BSDF)")
-    ax.legend(fontsize=6)
+    ax.set_title("scene: colour (line: Mitsuba's spp); rasterizer configuration: marker", fontsize=8)
+    ax.legend(handles=handles, fontsize=6, loc="upper left", bbox_to_anchor=(0.0, -0.14), ncol=3, frameon=False)
     s = [r for r in rows if r["section"] == "strands"]
     if s:
         bx.plot([int(r["variant"].split()[0]) for r in s], [r["ms"] for r in s], "o-")
