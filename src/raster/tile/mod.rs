@@ -14,7 +14,7 @@ use super::bin::TILE;
 use super::coverage::{coverage_at, stretch_param, triangle_pixels, RowSpan, Tri2};
 use super::cull::{BehindHair, BehindOpaque};
 use super::oit::Layers;
-use super::samples::{strand_depth, surface_lead, unit, SampleBuffer, SamplePoints};
+use super::samples::{surface_lead, unit, SampleBuffer, SamplePoints, StrandSamples};
 use super::scene::{RenderOptions, Scene, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
 use super::shade::{offset_line, NearLight};
@@ -36,6 +36,14 @@ pub struct TileContext<'a> {
     /// The background's radiance where it is the same along every ray
     /// (no environment, or a constant one); None: per pixel.
     pub uniform_background: Option<Vec3>,
+}
+
+/// How a fragment's depth at a coverage sample is found: a strand
+/// segment's surface ([`SampleBuffer::cover_strand`]), or a function
+/// called per sample not yet nearer (cards).
+enum Covers<F> {
+    Strand(StrandSamples),
+    Each(F),
 }
 
 /// The background's radiance when no pixel's ray changes it: the constant
@@ -291,14 +299,18 @@ impl<'a> Tile<'a> {
         color: Option<Vec3>,
         line: [f32; 4],
         depth_lo: f32,
-        mut covers: impl FnMut([f32; 2]) -> Option<f32>,
+        covers: Covers<impl FnMut([f32; 2]) -> Option<f32>>,
     ) {
         let Some((pts, buf)) = &mut self.samples else {
             return;
         };
         let id = self.pending.k.len() as u32;
         let pix = pts.pixel(k);
-        if buf.cover(k, id, depth_lo, |s| covers(pix[s])) {
+        let took = match covers {
+            Covers::Strand(seg) => buf.cover_strand(k, id, depth_lo, pix, &seg),
+            Covers::Each(mut f) => buf.cover(k, id, depth_lo, |s| f(pix[s])),
+        };
+        if took {
             self.fragments += 1;
             self.pending.push(k, depth, 1.0, p, t, fiber);
             // NaN: not shaded yet (a card, or per-fragment shading)
@@ -454,9 +466,18 @@ impl<'a> Tile<'a> {
                         // along the segment, less the lead
                         let lo =
                             (depth - 1.5 * (s.zb - s.za).abs() * inv_len2.sqrt()).max(z_min) - lead;
-                        self.sampled_fragment(k, depth, pw, tangent, fiber, color, line, lo, |p| {
-                            strand_depth(s, d, inv_len2, lead, p)
-                        });
+                        let seg = StrandSamples::new(s, d, inv_len2, lead);
+                        self.sampled_fragment(
+                            k,
+                            depth,
+                            pw,
+                            tangent,
+                            fiber,
+                            color,
+                            line,
+                            lo,
+                            Covers::<fn([f32; 2]) -> Option<f32>>::Strand(seg),
+                        );
                     } else {
                         self.hair_fragment(k, depth, cov, pw, tangent, fiber, color);
                     }
@@ -509,11 +530,11 @@ impl<'a> Tile<'a> {
                         None,
                         no_line,
                         depth,
-                        |_| {
+                        Covers::Each(|_| {
                             s += 1;
                             (unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha)
                                 .then_some(depth)
-                        },
+                        }),
                     );
                 } else {
                     self.hair_fragment(k, depth, alpha, pw, t.tangent, Fiber::NONE, None);
