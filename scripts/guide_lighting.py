@@ -147,7 +147,8 @@ def _markdown(rows: list, args, path: str) -> None:
         "every other strand takes, at each vertex, the values of its 3 nearest guides (strands compared by their "
         "points at 0, 1/2 and 1 of their length, weighted by inverse squared distance) at the same fraction of "
         "their length (`src/raster/guides.rs`). `guide_choice`: every k-th strand, or the member nearest each "
-        "centre of k-means clusters. Under per-vertex shading (`fast`), `guide_terms` `all` takes everything from "
+        "centre of k-means clusters; `guides` may also list the guide strands' indices (a scene's own guides, "
+        "such as simulation guides). Under per-vertex shading (`fast`), `guide_terms` `all` takes everything from "
         "the guides, as RE4's prototype did; `scattered` takes only what split shading reads at vertices (the "
         "environment, multiple scattering) and shades each vertex's lights' unscattered light with its own "
         "shadow. Under split shading (`balanced`) the guides give the terms read at vertices.",

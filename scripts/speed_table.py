@@ -10,8 +10,10 @@ and the volume solve (a camera move), its ratio to the fast preset's frame
 in the same run, and at 320x180 its error against the converged
 path-traced truth. Then, at 1280x720, the speed-ups one at a time against
 what they replace: split shading against per-fragment shading (balanced),
-per-vertex shading against per-fragment (fast), and the level of detail
-``lod: "auto"`` (fast), each with the relMSE between the two images.
+per-vertex shading against per-fragment (fast), the level of detail
+``lod: "auto"`` (fast), and guide-strand lighting at a tenth of the
+strands (balanced, docs/guides.md), each with the relMSE between the two
+images.
 Writes docs/speed.md and docs/speed.csv.
 """
 
@@ -76,6 +78,7 @@ def measure(heads: tuple[str, ...], repeats: int):
                 ("split shading", "balanced", dict(shading="pixel"), dict(shading="split")),
                 ("vertex shading", "fast", dict(shading="pixel"), dict(shading="vertex")),
                 ("lod auto", "fast", dict(), dict(lod="auto")),
+                ("guides 1/10", "balanced", dict(), dict(guides=0.1)),
             ):
                 a, ta = timed(scene, repeats, quality=quality, **base)
                 b, tb = timed(scene, repeats, quality=quality, **fast)
@@ -113,7 +116,7 @@ def markdown(presets, speedups, command: str) -> str:
     out += ["## What each speed-up costs (1280x720)", "",
             "Each against what it replaces, in the same run: relMSE between the two images, and the largest "
             "change of a channel's mean. Split shading is in `balanced` and `accurate`, vertex shading in `fast`; "
-            "`lod: \"auto\"` is not in any preset.", "",
+            "`lod: \"auto\"` and guide-strand lighting are not in any preset.", "",
             "| head | speed-up | quality | before (s) | after (s) | speed | relMSE | mean off by |",
             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in speedups:

@@ -156,3 +156,24 @@ def test_09_split_shading_reads_its_vertex_terms_from_the_guides():
     print(err, img.mean() / full.mean())
     assert 0 < err < 1e-3
     assert abs(img.mean() / full.mean() - 1) < 0.02
+
+
+def test_10_guides_given_by_index():
+    """Guides may be given as strand indices: every tenth strand given is
+    the `every` choice at 1/10, bit for bit. Indices are checked against
+    the scene's strands; under a level of detail the given guides that are
+    drawn guide."""
+    s = _head()
+    kw = dict(quality="fast", guide_terms="all")
+    every, st = hs.render(s, guides=0.1, return_stats=True, **kw)
+    given, st2 = hs.render(s, guides=list(range(0, 3000, 10)), return_stats=True, **kw)
+    np.testing.assert_array_equal(given, every)
+    assert st2["guide_strands"] == st["guide_strands"] == 300
+    np.testing.assert_array_equal(hs.render(s, guides=np.arange(0, 3000, 10), **kw), every)
+    with pytest.raises(hs.SceneError, match="render.guides: strand index 3000 is out of range"):
+        hs.render(s, guides=[0, 3000], **kw)
+    for bad in ([-1], [0.5], [True], []):
+        with pytest.raises(ValueError, match="guides"):
+            hs.render(s, guides=bad, **kw)
+    _, st3 = hs.render(s, lod=0.5, guides=list(range(0, 3000, 10)), return_stats=True, **kw)
+    assert 0 < st3["guide_strands"] < 300

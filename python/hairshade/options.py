@@ -243,10 +243,10 @@ class RenderSettings(TypedDict, total=False):
         "vertex: everything per vertex")]
     lod: Annotated[Union[float, Literal["auto"]], Native("lod"), Doc(
         "the fraction of the strands drawn, each wider by its inverse, or 'auto' (from their width on screen)")]
-    guides: Annotated[float, Native("guide_fraction"), _GUIDES, Doc(
-        "guide-strand lighting: the fraction of the strands shaded at their vertices (the guides); every other "
-        "strand takes its vertices' values from its 3 nearest guides at the same fraction of their length "
-        "(1: every strand shaded; docs/guides.md)")]
+    guides: Annotated[Union[float, Sequence[int]], Native("guides"), _GUIDES, Doc(
+        "guide-strand lighting: the fraction of the strands shaded at their vertices (the guides), or the guide "
+        "strands' indices; every other strand takes its vertices' values from its 3 nearest guides at the same "
+        "fraction of their length (1: every strand shaded; docs/guides.md)")]
     guide_choice: Annotated[Literal["every", "clusters"], Native("guide_choice"), _GUIDES, Doc(
         "which strands guide: every k-th, or the strand nearest each centre of k-means clusters of the strands")]
     guide_terms: Annotated[Literal["scattered", "all"], Native("guide_terms"), _GUIDE_TERMS, Doc(

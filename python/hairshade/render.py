@@ -11,6 +11,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _native
+from ._errors import SceneError
 from ._progress import Bar
 from .scene import Scene, light_vector
 
@@ -89,6 +90,7 @@ def _render(scene: Scene, width: int | None, height: int | None, progress: bool 
     """:func:`render` with the renderer's options resolved (the benchmark's
     speed-up switches are added to these)."""
     scene.check()
+    _check_guides(options.get("guides"), len(scene.offsets) - 1)
     cam = dict(scene.camera)
     if width is not None or height is not None:
         for name, v in (("width", width), ("height", height)):
@@ -107,6 +109,16 @@ def _render(scene: Scene, width: int | None, height: int | None, progress: bool 
                       "non-finite value and were set to 0 (a radiance, background or light too large for float32)",
                       RuntimeWarning, stacklevel=3)
     return (img, stats) if return_stats else img
+
+
+def _check_guides(guides: Any, strands: int) -> None:
+    """Guide strands given by index must be strands of the scene."""
+    if guides is None or isinstance(guides, (str, bytes, int, float, np.number)):
+        return
+    idx = np.asarray(guides)
+    if idx.ndim == 1 and idx.size and np.issubdtype(idx.dtype, np.integer) and idx.max() >= strands:
+        raise SceneError(f"render.guides: strand index {int(idx.max())} is out of range (the scene has "
+                         f"{strands} strands)")
 
 
 def _strands(scene: Scene, cam: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -18,6 +18,7 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
 
 pub(super) fn err(key: &str, msg: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(format!("{key}: {msg}"))
@@ -164,11 +165,15 @@ impl<'py> OptionReader<'_, 'py> {
         }
     }
 
-    /// A number in (0, 1] (default 1): a fraction of the strands.
+    /// A number in (0, 1] (default 1): a fraction of the strands; 1 where
+    /// the key holds strand indices ([`Self::strand_list`]).
     fn fraction(&mut self, key: &'static str) -> PyResult<f32> {
         let Some(v) = self.get(key)? else {
             return Ok(1.0);
         };
+        if !v.is_instance_of::<PyString>() && number(&v).is_none() && v.try_iter().is_ok() {
+            return Ok(1.0);
+        }
         match number(&v) {
             Some(x) if x > 0.0 && x <= 1.0 && (x as f32) > 0.0 => Ok(x as f32),
             _ => Err(err(
@@ -179,6 +184,45 @@ impl<'py> OptionReader<'_, 'py> {
                 ),
             )),
         }
+    }
+
+    /// Strand indices (a sequence of integers, each in [0, 2^32)), or None
+    /// where the key is absent or holds something else (a number).
+    fn strand_list(&mut self, key: &'static str) -> PyResult<Option<Arc<[u32]>>> {
+        let Some(v) = self.get(key)? else {
+            return Ok(None);
+        };
+        if v.is_instance_of::<PyString>() || number(&v).is_some() {
+            return Ok(None);
+        }
+        let Ok(items) = v.try_iter() else {
+            return Ok(None);
+        };
+        let mut out = Vec::new();
+        for x in items {
+            let x = x?;
+            let i = (!x.is_instance_of::<PyBool>())
+                .then(|| x.extract::<i64>().ok())
+                .flatten()
+                .filter(|i| (0..1i64 << 32).contains(i));
+            match i {
+                Some(i) => out.push(i as u32),
+                None => {
+                    return Err(err(
+                        key,
+                        format!(
+                            "expected a fraction of the strands in (0, 1] or strand indices (integers >= 0), \
+                             got the item {}",
+                            repr(&x)
+                        ),
+                    ))
+                }
+            }
+        }
+        if out.is_empty() {
+            return Err(err(key, "expected at least one strand index, got none"));
+        }
+        Ok(Some(out.into()))
     }
 
     /// A `ValueError` naming the first key that was not read.
@@ -242,7 +286,7 @@ fn range(key: &str) -> (f64, f64) {
         "density_resolution" => int(RenderOptions::DENSITY_RESOLUTION),
         "environment_directions" => int(crate::raster::env_light::DIRECTIONS_RANGE),
         "dual_forward_density" | "dual_back_density" | "hair_cull_transmittance" => (0.0, 1.0),
-        "lod" | "guide_fraction" => (0.0, 1.0),
+        "lod" | "guides" => (0.0, 1.0),
         "volume_resolution" => int(crate::raster::volume::RESOLUTION),
         "volume_photons" => int(crate::raster::volume::PHOTONS),
         "volume_bins" => int(crate::raster::volume::BINS),
@@ -252,8 +296,8 @@ fn range(key: &str) -> (f64, f64) {
 }
 
 /// The numeric render options' ranges: name -> (lowest, highest), both
-/// inclusive (`lod` and `guide_fraction` exclude 0; `f64::MAX` stands for
-/// no bound).
+/// inclusive (`lod` and `guides` exclude 0; `f64::MAX` stands for no
+/// bound).
 #[pyfunction]
 pub fn render_option_ranges(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
@@ -270,7 +314,7 @@ pub fn render_option_ranges(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         "hair_cull_transmittance",
         "light_cull_threshold",
         "lod",
-        "guide_fraction",
+        "guides",
         "volume_resolution",
         "volume_photons",
         "volume_bins",
@@ -361,7 +405,8 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
             as usize,
         lod: r.lod("lod")?,
         guides: Guides {
-            fraction: r.fraction("guide_fraction")?,
+            given: r.strand_list("guides")?,
+            fraction: r.fraction("guides")?,
             choice: match r.choice("guide_choice", "every", &["every", "clusters"])? {
                 "clusters" => GuideChoice::Clusters,
                 _ => GuideChoice::Every,
@@ -468,7 +513,10 @@ fn options_dict<'py>(
         Lod::Auto => d.set_item("lod", "auto")?,
         Lod::Fraction(f) => d.set_item("lod", f as f64)?,
     }
-    d.set_item("guide_fraction", o.guides.fraction as f64)?;
+    match &o.guides.given {
+        Some(g) => d.set_item("guides", g.to_vec())?,
+        None => d.set_item("guides", o.guides.fraction as f64)?,
+    }
     d.set_item(
         "guide_choice",
         match o.guides.choice {

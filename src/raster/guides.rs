@@ -14,7 +14,8 @@
 //! `All` darkens it (`docs/guides.md`); a light's unscattered light, with
 //! its own shadow, is what `Scattered` keeps per strand.
 //!
-//! Which strands guide (`guide_fraction` f, in (0, 1]):
+//! Which strands guide: those given (strand indices; where none of them is
+//! drawn, every strand is shaded), or a fraction f in (0, 1] of them:
 //! - `every`: strands `0, k, 2k, ...` with `k = round(1/f)`;
 //! - `clusters`: `round(f·N)` clusters of the strands by k-means (four
 //!   Lloyd iterations from farthest-point samples of the strands), each
@@ -61,12 +62,14 @@ pub enum GuideTerms {
 
 /// Guide-strand lighting's settings: the fraction of the strands that
 /// guide (1: every strand is shaded, no guides), how they are chosen, and
-/// what the others take from them.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// what the others take from them; or the guide strands themselves
+/// (`given`, indices into the strands drawn).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Guides {
     pub fraction: f32,
     pub choice: GuideChoice,
     pub terms: GuideTerms,
+    pub given: Option<Arc<[u32]>>,
 }
 
 impl Default for Guides {
@@ -75,6 +78,7 @@ impl Default for Guides {
             fraction: 1.0,
             choice: GuideChoice::Every,
             terms: GuideTerms::Scattered,
+            given: None,
         }
     }
 }
@@ -82,7 +86,26 @@ impl Default for Guides {
 impl Guides {
     /// Whether any strand takes its values from guides.
     pub fn on(&self) -> bool {
-        self.fraction < 1.0
+        self.fraction < 1.0 || self.given.is_some()
+    }
+
+    /// The same settings with the given guides renumbered for a subset of
+    /// the strands (`kept`: the original index of each strand kept,
+    /// ascending), sorted once each; guides not kept are dropped.
+    pub fn for_subset(&self, kept: &[usize]) -> Self {
+        let given = self.given.as_ref().map(|g| {
+            let mut sub: Vec<u32> = g
+                .iter()
+                .filter_map(|&s| kept.binary_search(&(s as usize)).ok().map(|i| i as u32))
+                .collect();
+            sub.sort_unstable();
+            sub.dedup();
+            sub.into()
+        });
+        Self {
+            given,
+            ..self.clone()
+        }
     }
 }
 
@@ -110,7 +133,7 @@ pub struct GuideMap {
 
 impl GuideMap {
     /// The taps of every vertex of `strands` with guides chosen by `g`.
-    pub fn new(strands: &Strands, g: Guides) -> Self {
+    pub fn new(strands: &Strands, g: &Guides) -> Self {
         let n = strands.strand_count();
         let feats: Vec<Feature> = (0..n).map(|s| feature(strands, s)).collect();
         let guides = choose(&feats, g);
@@ -164,12 +187,15 @@ impl GuideMap {
     /// [`Self::new`], or the map the last render built for the same
     /// strands (`geometry`: their hash, [`super::shadow::geometry_hash`])
     /// and settings.
-    pub fn cached(strands: &Strands, g: Guides, geometry: u64) -> Arc<Self> {
+    pub fn cached(strands: &Strands, g: &Guides, geometry: u64) -> Arc<Self> {
         static CACHE: OnceLock<Cache> = OnceLock::new();
         let mut h = super::shadow::WordHash::default();
         h.word(geometry);
         h.word(g.fraction.to_bits() as u64);
         h.word(g.choice as u64);
+        if let Some(given) = &g.given {
+            h.floats(given.iter().map(|&s| f32::from_bits(s)));
+        }
         let key = h.finish();
         let cache = CACHE.get_or_init(|| Mutex::new(None));
         if let Some((_, m)) = cache
@@ -317,10 +343,23 @@ fn locate(st: &Strands, arc: &[f32], s: usize, u: f32) -> (u32, f32) {
 }
 
 /// The guide strands for `g`, ascending.
-fn choose(feats: &[Feature], g: Guides) -> Vec<u32> {
+fn choose(feats: &[Feature], g: &Guides) -> Vec<u32> {
     let n = feats.len();
     if n == 0 {
         return Vec::new();
+    }
+    if let Some(given) = &g.given {
+        let mut guides: Vec<u32> = given
+            .iter()
+            .copied()
+            .filter(|&s| (s as usize) < n)
+            .collect();
+        guides.sort_unstable();
+        guides.dedup();
+        if guides.is_empty() {
+            return (0..n as u32).collect();
+        }
+        return guides;
     }
     let k = ((1.0 / g.fraction.max(f32::MIN_POSITIVE)).round() as usize).clamp(1, n);
     let every: Vec<u32> = (0..n).step_by(k).map(|s| s as u32).collect();

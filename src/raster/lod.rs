@@ -94,6 +94,19 @@ pub fn median_width_px(strands: &Strands, camera: &Camera) -> Option<f32> {
     Some(*w.select_nth_unstable_by(mid, f32::total_cmp).1)
 }
 
+/// The indices of the strands [`reduce`] keeps of `count` at fraction
+/// `f`, ascending: those ranked below `f`, or where none is (f under
+/// ~1/N) the lowest-ranked strand alone.
+pub fn kept(count: usize, f: f32) -> Vec<usize> {
+    let kept: Vec<usize> = (0..count).filter(|&s| rank(s) < f).collect();
+    if kept.is_empty() && count > 0 {
+        return vec![(0..count)
+            .min_by(|&a, &b| rank(a).total_cmp(&rank(b)))
+            .expect("count > 0")];
+    }
+    kept
+}
+
 /// The strands with rank below `f`, widened to keep the total width
 /// (module docs); `None` when every strand is kept.
 pub fn reduce(strands: &Strands, f: f32) -> Option<Strands> {
@@ -101,18 +114,10 @@ pub fn reduce(strands: &Strands, f: f32) -> Option<Strands> {
     if f >= 1.0 || count == 0 {
         return None;
     }
-    let kept: Vec<usize> = (0..count).filter(|&s| rank(s) < f).collect();
+    let kept = kept(count, f);
     if kept.len() == count {
         return None;
     }
-    // Nothing ranked below f (f under ~1/N): the lowest-ranked strand alone.
-    let kept = if kept.is_empty() {
-        vec![(0..count)
-            .min_by(|&a, &b| rank(a).total_cmp(&rank(b)))
-            .expect("count > 0")]
-    } else {
-        kept
-    };
     let width = |s: usize| -> f64 {
         let r = strands.offsets[s] as usize..strands.offsets[s + 1] as usize;
         strands.radii[r].iter().map(|&x| x as f64).sum()

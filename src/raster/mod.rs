@@ -182,6 +182,12 @@ pub fn render_with_progress(
         triangles: scene.triangles.clone(),
         hair: scene.hair.clone(),
     });
+    let guide_settings = match (&reduced, &opts.guides.given) {
+        (Some(_), Some(_)) => opts
+            .guides
+            .for_subset(&lod::kept(scene.strands.strand_count(), stats.lod_fraction)),
+        _ => opts.guides.clone(),
+    };
     let scene = reduced.as_ref().unwrap_or(scene);
     stats.strands_drawn = scene.strands.strand_count();
 
@@ -247,7 +253,7 @@ pub fn render_with_progress(
         None
     };
     let tg = std::time::Instant::now();
-    let guide_map = guide_map(scene, opts, geometry);
+    let guide_map = guide_map(scene, opts, &guide_settings, geometry);
     stats.guide_strands = guide_map.as_ref().map_or(0, |g| g.guides.len());
     stats.guides_ms = ms(tg);
     let shader = Shader::new(scene, &shadows, lit, Some(cancel), opts)
@@ -412,12 +418,18 @@ fn shade_clipped_ends(segs: &mut [setup::Segment], shader: &Shader<'_>, eye: gla
     }
 }
 
-/// The guide map of guide-strand lighting, when it is on and something is
+/// The guide map of guide-strand lighting (`g`: the settings, given guides
+/// numbered among the strands drawn), when it is on and something is
 /// shaded at vertices (`vertex` or `split` shading): cached per geometry
 /// while shadow maps are (`geometry`: [`shadow::geometry_hash`], or 0 when
 /// the render does not reuse).
-fn guide_map(scene: &Scene, opts: &RenderOptions, geometry: u64) -> Option<Arc<guides::GuideMap>> {
-    if !opts.guides.on() || !(opts.vertex_shading || opts.split_shading) {
+fn guide_map(
+    scene: &Scene,
+    opts: &RenderOptions,
+    g: &guides::Guides,
+    geometry: u64,
+) -> Option<Arc<guides::GuideMap>> {
+    if !g.on() || !(opts.vertex_shading || opts.split_shading) {
         return None;
     }
     Some(if opts.reuse_shadow_maps {
@@ -426,9 +438,9 @@ fn guide_map(scene: &Scene, opts: &RenderOptions, geometry: u64) -> Option<Arc<g
         } else {
             shadow::geometry_hash(scene)
         };
-        guides::GuideMap::cached(&scene.strands, opts.guides, geometry)
+        guides::GuideMap::cached(&scene.strands, g, geometry)
     } else {
-        Arc::new(guides::GuideMap::new(&scene.strands, opts.guides))
+        Arc::new(guides::GuideMap::new(&scene.strands, g))
     })
 }
 

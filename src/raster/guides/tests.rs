@@ -33,6 +33,7 @@ fn every(fraction: f32) -> Guides {
         fraction,
         choice: GuideChoice::Every,
         terms: GuideTerms::All,
+        given: None,
     }
 }
 
@@ -63,7 +64,7 @@ fn t01_index_equals_brute_force() {
 fn t02_every_kth_and_weights() {
     let st = strands(&random_roots(100), 5);
     for (f, k) in [(0.25, 4), (0.1, 10), (1.0 / 30.0, 30)] {
-        let map = GuideMap::new(&st, every(f));
+        let map = GuideMap::new(&st, &every(f));
         let want: Vec<u32> = (0..100).step_by(k).map(|s| s as u32).collect();
         assert_eq!(map.guides, want, "f = {f}");
         for s in 0..100 {
@@ -121,7 +122,7 @@ fn t03_interpolates_at_the_same_arc_fraction() {
         points,
         offsets,
     };
-    let map = GuideMap::new(&st, every(0.25));
+    let map = GuideMap::new(&st, &every(0.25));
     let arc = arc_fractions(&st);
     let value = |i: usize| Vec3::new(arc[i], 2.0 * arc[i] + 1.0, -arc[i]);
     for i in 0..st.points.len() {
@@ -155,13 +156,14 @@ fn t04_clusters_find_clumps() {
         fraction: 0.1,
         choice: GuideChoice::Clusters,
         terms: GuideTerms::All,
+        given: None,
     };
-    let map = GuideMap::new(&st, g);
+    let map = GuideMap::new(&st, &g);
     let mut clumps: Vec<usize> = map.guides.iter().map(|&s| clump(s as usize)).collect();
     clumps.sort_unstable();
     assert_eq!(clumps, (0..12).collect::<Vec<_>>());
     // every-10th guides miss clumps here: the test can tell the two apart
-    let mut naive: Vec<usize> = GuideMap::new(&st, every(0.1))
+    let mut naive: Vec<usize> = GuideMap::new(&st, &every(0.1))
         .guides
         .iter()
         .map(|&s| clump(s as usize))
@@ -182,7 +184,7 @@ fn t04_clusters_find_clumps() {
 #[test]
 fn t05_needed_vertices() {
     let st = strands(&random_roots(30), 6);
-    let map = GuideMap::new(&st, every(0.2));
+    let map = GuideMap::new(&st, &every(0.2));
     let mut used = vec![false; st.points.len()];
     used[st.offsets[7] as usize + 2] = true;
     let need = map.needed(Some(&used));
@@ -206,4 +208,25 @@ fn t05_needed_vertices() {
             .unwrap();
         assert!(map.guides.contains(&(s as u32)));
     }
+}
+
+/// 6. Given guides: those strands (sorted, repeats and indices past the
+///    strands dropped); renumbered for a subset of the strands, those not
+///    kept dropped; none left: every strand is its own guide.
+#[test]
+fn t06_given_guides() {
+    let st = strands(&random_roots(20), 4);
+    let g = Guides {
+        given: Some(vec![7, 3, 3, 19, 25].into()),
+        ..Guides::default()
+    };
+    assert!(g.on());
+    assert_eq!(GuideMap::new(&st, &g).guides, vec![3, 7, 19]);
+    let sub = g.for_subset(&[1, 3, 4, 19]);
+    assert_eq!(sub.given.as_deref(), Some(&[1u32, 3][..]));
+    let none = g.for_subset(&[0, 1]);
+    assert_eq!(
+        GuideMap::new(&st, &none).guides,
+        (0..20).collect::<Vec<u32>>()
+    );
 }
