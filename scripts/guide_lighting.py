@@ -51,9 +51,18 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(ROOT, "docs"))
+    ap.add_argument("--picture-only", action="store_true", help="draw guides.png alone")
     ap.add_argument("--markdown-only", action="store_true",
                     help="rewrite guides.md from the guides.csv already in --out (no rendering)")
     args = ap.parse_args()
+    if args.picture_only:
+        scene = preset_scene(os.path.join(DENSE, "auburn_key.json"))
+        kw = dict(quality="fast", shading="vertex", progress=False)
+        pictures = {"full": hs.render(scene, **kw)}
+        for terms in ("all", "scattered"):
+            pictures[terms] = hs.render(scene, guides=0.1, guide_choice="every", guide_terms=terms, **kw)
+        _picture(pictures, os.path.join(args.out, "guides.png"))
+        return
     if args.markdown_only:
         with open(os.path.join(args.out, "guides.csv")) as fh:
             rows = [{k: (float(v) if k.startswith("rel_mse") else v) for k, v in r.items()}
@@ -122,10 +131,11 @@ def _picture(p: dict, path: str) -> None:
 
     panels = [("every strand shaded", p["full"]), ("guides 1/10, all (RE4)", p["all"]),
               ("guides 1/10, scattered", p["scattered"])]
-    scale = np.percentile(p["full"], 99.5)
+    # the same exposure for all three: the full render's 99.5th percentile at white
+    exposure = -float(np.log2(np.percentile(p["full"], 99.5)))
     fig, ax = plt.subplots(1, 3, figsize=(12, 2.6))
     for a, (title, img) in zip(ax, panels):
-        a.imshow(np.clip((img / scale) ** (1 / 2.2), 0, 1))
+        a.imshow(hs.tonemap(img, exposure=exposure))
         a.set_title(title, fontsize=9)
         a.axis("off")
     fig.tight_layout()

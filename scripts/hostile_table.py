@@ -160,8 +160,9 @@ def cases(tmp: str) -> list[Case]:
             d = scene_dict(hair={"strands": [{"points": np.asarray(p).tolist(), "radius": 0.002} for p in pts]},
                            lights=[{"type": "directional", "direction": [0, 1, 1], "intensity": [2, 2, 2]},
                                    {"type": "environment", "radiance": [0.5, 0.5, 0.5]}],
-                           render={"multiple_scattering": "dual"})
-            d["camera"] = {"position": [0, 0, 2.3], "target": [0, 0, 0], "fov": 40, "resolution": [1280, 720]}
+                           render={"multiple_scattering": "dual", "quality": "accurate"})
+            # (large enough to be still rendering when Ctrl-C comes, 2 s after the start)
+            d["camera"] = {"position": [0, 0, 2.3], "target": [0, 0, 0], "fov": 40, "resolution": [2560, 1440]}
             s = hs.Scene.from_dict(d)
             print("go", flush=True)
             hs.render(s, progress=False)""", stopped, sigint_after=2.0, timeout=300),
