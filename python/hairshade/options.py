@@ -345,8 +345,9 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     # the best error per second: 16 coverage samples, traced shadows, multiple scattering
     # through the volume (ChiangHair) or dual scattering (KarisHair), its slowly varying
     # terms read at the strands' vertices (split shading: docs/speed.md), computed at a
-    # tenth of the strands (docs/guides.md: 1.1-1.6x faster, the error against the truth
-    # within 4.4% of itself on the dense and held-out heads, the mean within 0.6%)
+    # tenth of the strands (docs/guides.md, guides_held_out.md: 1.1-1.7x faster at 320x180,
+    # the error against the truth within 4.4% of itself on the dense and held-out heads, the
+    # mean within 0.6%)
     "balanced": {
         "transparency": {"coverage": {"samples": 16}},
         "shadows": {"traced": {}},
