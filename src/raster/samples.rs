@@ -114,7 +114,9 @@ pub fn strand_covers(s: &Segment, d: [f32; 2], inv_len2: f32, p: [f32; 2]) -> bo
 /// end-on spans a range of depths within one pixel, and the ray meets its
 /// surface several radii before its axis: each sample takes the depth of
 /// its own hit, so that the fibers in front own the samples they cover, as
-/// the first hit of a ray through the sample would.
+/// the first hit of a ray through the sample would. (The strand pass
+/// computes the same, bit for bit, on vector lanes:
+/// [`SampleBuffer::cover_strand`].)
 #[inline]
 pub fn strand_depth(
     s: &Segment,
