@@ -26,6 +26,7 @@ import hairshade as hs  # noqa: E402
 import held_out_heads  # noqa: E402
 from hairshade.curves import subdivide  # noqa: E402
 from hairshade.demo import cpu_name, preset_scene  # noqa: E402
+from doc_tables import write_csv, write_markdown  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 HEADS = [("curly_auburn_point", "held_out"), ("curly_blond_env", "held_out"), ("wavy_blond_rim", "held_out"),
@@ -65,7 +66,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.table_only:
         rows = [dict(r, rel_mse=float(r["rel_mse"])) for r in csv.DictReader(open(os.path.join(args.out, "curves.csv")))]
-        write_markdown(rows, args)
+        write_page(rows, args)
         return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -94,12 +95,9 @@ def main() -> None:
                                      ratio="/".join(f"{x:.3f}" for x in ratio), subdivide_s=round(sub_s, 3),
                                      frame_s=round(best, 3)))
                     print(rows[-1], flush=True)
-    with open(os.path.join(args.out, "curves.csv"), "w", newline="") as f:
-        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
+    write_csv(os.path.join(args.out, "curves.csv"), rows)
     picture(os.path.join(args.out, "curves.png"))
-    write_markdown(rows, args)
+    write_page(rows, args)
 
 
 def summary(rows: list[dict]) -> list[str]:
@@ -116,7 +114,7 @@ def summary(rows: list[dict]) -> list[str]:
     return out
 
 
-def write_markdown(rows: list[dict], args: argparse.Namespace) -> None:
+def write_page(rows: list[dict], args: argparse.Namespace) -> None:
     lines = [
         "# Strands as curves",
         "",
@@ -146,9 +144,7 @@ def write_markdown(rows: list[dict], args: argparse.Namespace) -> None:
     ]
     lines += [f"| {r['head']} | {r['segments']} | {r['quality']} | {r['curve']} | {r['points']} | "
               f"{r['rel_mse']:.2e} | {r['ratio']} | {r['subdivide_s']} | {r['frame_s']} |" for r in rows]
-    with open(os.path.join(args.out, "curves.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", os.path.join(args.out, "curves.md"))
+    write_markdown(os.path.join(args.out, "curves.md"), lines)
 
 
 if __name__ == "__main__":

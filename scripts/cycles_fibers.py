@@ -26,7 +26,6 @@ Coefficient), not hairshade's conversion.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import os
@@ -36,8 +35,10 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "python"))
+sys.path.insert(0, os.path.dirname(__file__))
 import hairshade as hs  # noqa: E402
 from hairshade import _extras  # noqa: E402
+from doc_tables import write_csv, write_markdown  # noqa: E402
 
 W, H = 128, 32
 LIGHTS = {"front": [0.2, 0.55, 0.81], "back": [0.25, 0.35, -0.9]}
@@ -151,10 +152,7 @@ def main() -> None:
         json.dump(dict(blender=bpy.app.version_string, spp_per_half=args.spp // 2, cases=cached), f, indent=1)
         f.write("\n")
     os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "cycles_fibers.csv"), "w", newline="") as f:
-        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
+    write_csv(os.path.join(args.out, "cycles_fibers.csv"), rows)
     lines = [
         "# Blender's Principled Hair against ChiangHair.from_blender",
         "",
@@ -197,9 +195,7 @@ def main() -> None:
         "rasterizer and Cycles agree (0.984 and 0.985 of the exact value) where Mitsuba is at 1.005; the far "
         "field there equals the near field averaged over h (`tests/test_chiang_far.py`, test 05).",
     ]
-    with open(os.path.join(args.out, "cycles_fibers.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", os.path.join(args.out, "cycles_fibers.md"))
+    write_markdown(os.path.join(args.out, "cycles_fibers.md"), lines)
 
 
 if __name__ == "__main__":

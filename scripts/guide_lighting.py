@@ -23,7 +23,9 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "python"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import hairshade as hs  # noqa: E402
+from doc_tables import write_csv, write_markdown  # noqa: E402
 from hairshade.demo import cpu_name, preset_scene  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
@@ -119,20 +121,15 @@ def main() -> None:
                          vertex_ms=round(vms, 1), frame_ms=round(frame, 1), guides_ms=round(gms, 1)))
         print(rows[-1], flush=True)
     os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "guides.csv"), "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
+    write_csv(os.path.join(args.out, "guides.csv"), rows)
     _picture(pictures, os.path.join(args.out, "guides.png"))
     _markdown(rows, args, os.path.join(args.out, "guides.md"))
-    print("wrote", os.path.join(args.out, "guides.md"))
 
 
 def _held_out(args) -> None:
     """The balanced preset at guides 1, 1/4 and 1/10 on the held-out heads
     against their cached truths (tests/data/held_out): frame, relMSE
     against the truth and against guides 1, the mean over guides 1's."""
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from held_out_heads import HEADS as HELD
 
     truths = os.path.join(ROOT, "tests", "data", "held_out")
@@ -158,8 +155,7 @@ def _held_out(args) -> None:
             lines.append(f"| {name} | {label} | {frame / 1e3:.3f} | {hs.rel_mse(img, truth):.2e} | "
                          f"{hs.rel_mse(img, full):.1e} | {'/'.join(f'{x:.3f}' for x in ratio)} |")
             print(lines[-1], flush=True)
-    with open(os.path.join(args.out, "guides_held_out.md"), "w") as fh:
-        fh.write("\n".join(lines) + "\n")
+    write_markdown(os.path.join(args.out, "guides_held_out.md"), lines)
 
 
 def _picture(p: dict, path: str) -> None:
@@ -245,8 +241,7 @@ def _markdown(rows: list, args, path: str) -> None:
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     lines += [fmt(r) for r in rows]
-    with open(path, "w") as fh:
-        fh.write("\n".join(lines) + "\n")
+    write_markdown(path, lines)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,6 @@ reduced to the fast preset's (MLAB, shadow maps), layers 4 and 8.
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import sys
 import time
@@ -20,8 +19,10 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "python"))
+sys.path.insert(0, os.path.dirname(__file__))
 import hairshade as hs  # noqa: E402
 from hairshade.demo import cpu_name, preset_scene  # noqa: E402
+from doc_tables import write_csv, write_markdown  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 HEADS = ["auburn_key", "black_top", "blond_back", "brown_side", "ginger_two", "demo_head"]
@@ -54,10 +55,7 @@ def main() -> None:
                                  rel_mse_sorted=hs.rel_mse(img, exact), rel_mse_f32=hs.rel_mse(img, base),
                                  ratio_f32="/".join(f"{x:.4f}" for x in ratio), frame_s=round(best, 4)))
                 print(rows[-1], flush=True)
-    with open(os.path.join(args.out, "packed_layers.csv"), "w", newline="") as f:
-        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
+    write_csv(os.path.join(args.out, "packed_layers.csv"), rows)
     lines = [
         "# Packed MLAB layers",
         "",
@@ -84,9 +82,7 @@ def main() -> None:
     ]
     lines += [f"| {r['head']} | {r['layers']} | {r['format']} | {r['bytes_per_pixel']} | {r['rel_mse_sorted']:.2e} "
               f"| {r['rel_mse_f32']:.2e} | {r['ratio_f32']} | {r['frame_s']} |" for r in rows]
-    with open(os.path.join(args.out, "packed_layers.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", os.path.join(args.out, "packed_layers.md"))
+    write_markdown(os.path.join(args.out, "packed_layers.md"), lines)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,9 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "python"))
+sys.path.insert(0, os.path.dirname(__file__))
 import hairshade as hs  # noqa: E402
+from doc_tables import write_csv, write_markdown  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 DENSE = os.path.join(ROOT, "tests", "data", "dense")
@@ -168,10 +170,7 @@ def main() -> None:
                                        if "halves_mean_rgb" in info else float("nan")),
             overlap=overlap_fraction(scene), accurate_seconds=round(secs, 2)))
         print(rows[-1], flush=True)
-    with open(os.path.join(args.out, "three_truths.csv"), "w", newline="") as f:
-        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
+    write_csv(os.path.join(args.out, "three_truths.csv"), rows)
 
     first = lambda k: (pairs[(k, 3)][0] - pairs[(k, 2)][0]) / (pairs[(k, 3)][1] - pairs[(k, 2)][1])  # noqa: E731
     a2, a3 = exp[("auburn_key", 2)], exp[("auburn_key", 3)]
@@ -233,9 +232,7 @@ def main() -> None:
         "not overlap agree within 3%; the dense heads' references are what each path tracer makes of the "
         "overlapping geometry, and the accurate preset lies between the two on four of the six heads.",
     ]
-    with open(os.path.join(args.out, "three_truths.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print("wrote", os.path.join(args.out, "three_truths.md"))
+    write_markdown(os.path.join(args.out, "three_truths.md"), lines)
 
 
 if __name__ == "__main__":

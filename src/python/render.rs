@@ -153,9 +153,9 @@ impl<'py> OptionReader<'_, 'py> {
         if v.is_instance_of::<PyString>() && v.extract::<String>()? == "auto" {
             return Ok(Lod::Auto);
         }
-        match number(&v) {
-            Some(x) if x > 0.0 && x <= 1.0 && (x as f32) > 0.0 => Ok(Lod::Fraction(x as f32)),
-            _ => Err(err(
+        match unit_fraction(&v) {
+            Some(x) => Ok(Lod::Fraction(x)),
+            None => Err(err(
                 key,
                 format!(
                     "expected 'auto' or a fraction of the strands in (0, 1], got {}",
@@ -174,9 +174,9 @@ impl<'py> OptionReader<'_, 'py> {
         if !v.is_instance_of::<PyString>() && number(&v).is_none() && v.try_iter().is_ok() {
             return Ok(1.0);
         }
-        match number(&v) {
-            Some(x) if x > 0.0 && x <= 1.0 && (x as f32) > 0.0 => Ok(x as f32),
-            _ => Err(err(
+        match unit_fraction(&v) {
+            Some(x) => Ok(x),
+            None => Err(err(
                 key,
                 format!(
                     "expected a fraction of the strands in (0, 1], got {}",
@@ -240,6 +240,14 @@ impl<'py> OptionReader<'_, 'py> {
         }
         Ok(())
     }
+}
+
+/// A number in (0, 1] that stays above 0 in f32, as f32 (a fraction of the
+/// strands: `lod`, `guides`).
+fn unit_fraction(v: &Bound<'_, PyAny>) -> Option<f32> {
+    number(v)
+        .filter(|&x| x > 0.0 && x <= 1.0 && (x as f32) > 0.0)
+        .map(|x| x as f32)
 }
 
 /// A Python int or float as f64 (None for bools, strings and the rest).

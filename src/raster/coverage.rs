@@ -217,12 +217,15 @@ impl RowSpan {
 /// keeps every sample, at t = 0.
 #[inline]
 pub fn on_stretch(s: &Segment, t_raw: f32, has_length: bool) -> Option<f32> {
-    let inside = if s.last {
-        t_raw >= 0.0
-    } else {
-        (0.0..1.0).contains(&t_raw)
-    };
-    (inside || !has_length).then(|| t_raw.clamp(0.0, 1.0))
+    (on_stretch_at(s.last, t_raw) || !has_length).then(|| t_raw.clamp(0.0, 1.0))
+}
+
+/// Whether the raw parameter `t_raw` lies on a segment's stretch (the
+/// strand's `last` segment runs on past its end): [`on_stretch`] without
+/// a branch, for vector lanes.
+#[inline(always)]
+pub fn on_stretch_at(last: bool, t_raw: f32) -> bool {
+    (t_raw >= 0.0) & (last | (t_raw < 1.0))
 }
 
 /// Coverage of pixel center `p` by segment `s`, and the screen parameter t

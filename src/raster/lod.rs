@@ -108,8 +108,9 @@ pub fn kept(count: usize, f: f32) -> Vec<usize> {
 }
 
 /// The strands with rank below `f`, widened to keep the total width
-/// (module docs); `None` when every strand is kept.
-pub fn reduce(strands: &Strands, f: f32) -> Option<Strands> {
+/// (module docs), and the original index of each ([`kept`]); `None` when
+/// every strand is kept.
+pub fn reduce(strands: &Strands, f: f32) -> Option<(Strands, Vec<usize>)> {
     let count = strands.strand_count();
     if f >= 1.0 || count == 0 {
         return None;
@@ -134,13 +135,13 @@ pub fn reduce(strands: &Strands, f: f32) -> Option<Strands> {
         radii: Vec::new(),
         offsets: vec![0],
     };
-    for s in kept {
+    for &s in &kept {
         let r = strands.offsets[s] as usize..strands.offsets[s + 1] as usize;
         out.points.extend_from_slice(&strands.points[r.clone()]);
         out.radii.extend(strands.radii[r].iter().map(|x| x * widen));
         out.offsets.push(out.points.len() as u32);
     }
-    Some(out)
+    Some((out, kept))
 }
 
 #[cfg(test)]
@@ -174,7 +175,7 @@ mod tests {
         let total: f64 = s.radii.iter().map(|&r| r as f64).sum();
         let mut previous: Option<Vec<Vec3>> = None;
         for f in [0.1f32, 0.25, 0.5, 0.9] {
-            let r = reduce(&s, f).unwrap();
+            let (r, _) = reduce(&s, f).unwrap();
             let share = r.strand_count() as f64 / 20000.0;
             let se = (f as f64 * (1.0 - f as f64) / 20000.0).sqrt();
             assert!((share - f as f64).abs() < 4.0 * se, "f {f}: share {share}");
@@ -203,7 +204,7 @@ mod tests {
     #[test]
     fn t02_tiny_fraction_and_ranks() {
         let s = strands(10);
-        let r = reduce(&s, 1e-9).unwrap();
+        let (r, _) = reduce(&s, 1e-9).unwrap();
         assert_eq!(r.strand_count(), 1);
         assert!((0..100000).map(rank).all(|u| (0.0..1.0).contains(&u)));
     }

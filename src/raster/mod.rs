@@ -172,21 +172,22 @@ pub fn render_with_progress(
 
     // 0. Strand level of detail.
     stats.lod_fraction = lod::fraction(opts.lod, &scene.strands, &scene.camera);
-    let reduced = lod::reduce(&scene.strands, stats.lod_fraction).map(|strands| Scene {
-        camera: scene.camera.clone(),
-        lights: scene.lights.clone(),
-        environment: scene.environment.clone(),
-        strands,
-        cards: scene.cards.clone(),
-        spheres: scene.spheres.clone(),
-        triangles: scene.triangles.clone(),
-        hair: scene.hair.clone(),
-    });
-    let guide_settings = match (&reduced, &opts.guides.given) {
-        (Some(_), Some(_)) => opts
-            .guides
-            .for_subset(&lod::kept(scene.strands.strand_count(), stats.lod_fraction)),
-        _ => opts.guides.clone(),
+    let (reduced, guide_settings) = match lod::reduce(&scene.strands, stats.lod_fraction) {
+        Some((strands, kept)) => (
+            Some(Scene {
+                camera: scene.camera.clone(),
+                lights: scene.lights.clone(),
+                environment: scene.environment.clone(),
+                strands,
+                cards: scene.cards.clone(),
+                spheres: scene.spheres.clone(),
+                triangles: scene.triangles.clone(),
+                hair: scene.hair.clone(),
+            }),
+            // given guides, numbered among the strands drawn
+            opts.guides.for_subset(&kept),
+        ),
+        None => (None, opts.guides.clone()),
     };
     let scene = reduced.as_ref().unwrap_or(scene);
     stats.strands_drawn = scene.strands.strand_count();

@@ -21,7 +21,7 @@
 //! noise falls as 1/√n.
 
 use super::bin::TILE;
-use super::coverage::on_stretch;
+use super::coverage::on_stretch_at;
 use super::setup::Segment;
 use glam::Vec3;
 
@@ -125,15 +125,35 @@ pub fn strand_depth(
     lead: f32,
     p: [f32; 2],
 ) -> Option<f32> {
-    let t_raw = ((p[0] - s.a[0]) * d[0] + (p[1] - s.a[1]) * d[1]) * inv_len2;
-    let t = on_stretch(s, t_raw, inv_len2 > 0.0)?;
-    let (cx, cy) = (s.a[0] + t * d[0] - p[0], s.a[1] + t * d[1] - p[1]);
-    let half = 0.5 * (s.wa + (s.wb - s.wa) * t);
+    let (hit, depth) = sample_hit(&StrandSamples::new(s, d, inv_len2, lead), p);
+    hit.then_some(depth)
+}
+
+/// [`strand_depth`] without a branch: whether sample point `p` lies on the
+/// strand, and the depth there (meaningless where it does not).
+#[inline(always)]
+fn sample_hit(seg: &StrandSamples, p: [f32; 2]) -> (bool, f32) {
+    let StrandSamples {
+        a,
+        d,
+        inv_len2,
+        wa,
+        dw,
+        za,
+        zb,
+        lead,
+        last,
+        has_length,
+    } = *seg;
+    let t_raw = ((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) * inv_len2;
+    let t = t_raw.clamp(0.0, 1.0);
+    let (cx, cy) = (a[0] + t * d[0] - p[0], a[1] + t * d[1] - p[1]);
+    let half = 0.5 * (wa + dw * t);
     let (e2, h2) = (cx * cx + cy * cy, half * half);
-    (e2 <= h2).then(|| {
-        let axis = 1.0 / ((1.0 - t) / s.za + t / s.zb);
-        axis - lead * (1.0 - e2 / h2).max(0.0).sqrt()
-    })
+    let axis = 1.0 / ((1.0 - t) / za + t / zb);
+    let depth = axis - lead * (1.0 - e2 / h2).max(0.0).sqrt();
+    let hit = (on_stretch_at(last, t_raw) | !has_length) & (e2 <= h2);
+    (hit, depth)
 }
 
 /// What [`strand_depth`] reads of a segment, for [`SampleBuffer::cover_strand`].
@@ -334,8 +354,8 @@ fn cover_strand_lanes<const W: usize>(run: Run<'_>, seg: &StrandSamples) -> bool
     took | cover_strand_run(rest.0, rest.1, rest.2, (id, depth_lo), seg)
 }
 
-/// The samples of one run: [`strand_depth`]'s terms, in its order of
-/// operations, each sample kept or not by selection.
+/// The samples of one run: [`sample_hit`] at each, kept or not by
+/// selection.
 #[inline(always)]
 fn cover_strand_run(
     depth: &mut [f32],
@@ -344,29 +364,10 @@ fn cover_strand_run(
     (id, depth_lo): (u32, f32),
     seg: &StrandSamples,
 ) -> bool {
-    let StrandSamples {
-        a,
-        d,
-        inv_len2,
-        wa,
-        dw,
-        za,
-        zb,
-        lead,
-        last,
-        has_length,
-    } = *seg;
     let mut took = false;
     for ((p, dst), own) in pts.iter().zip(depth.iter_mut()).zip(owner.iter_mut()) {
-        let t_raw = ((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) * inv_len2;
-        let inside = (t_raw >= 0.0) & (last | (t_raw < 1.0));
-        let t = t_raw.clamp(0.0, 1.0);
-        let (cx, cy) = (a[0] + t * d[0] - p[0], a[1] + t * d[1] - p[1]);
-        let half = 0.5 * (wa + dw * t);
-        let (e2, h2) = (cx * cx + cy * cy, half * half);
-        let axis = 1.0 / ((1.0 - t) / za + t / zb);
-        let at = axis - lead * (1.0 - e2 / h2).max(0.0).sqrt();
-        let take = (inside | !has_length) & (e2 <= h2) & (depth_lo < *dst) & (at < *dst);
+        let (hit, at) = sample_hit(seg, *p);
+        let take = hit & (depth_lo < *dst) & (at < *dst);
         *dst = if take { at } else { *dst };
         *own = if take { id } else { *own };
         took |= take;

@@ -38,14 +38,6 @@ pub struct TileContext<'a> {
     pub uniform_background: Option<Vec3>,
 }
 
-/// How a fragment's depth at a coverage sample is found: a strand
-/// segment's surface ([`SampleBuffer::cover_strand`]), or a function
-/// called per sample not yet nearer (cards).
-enum Covers<F> {
-    Strand(StrandSamples),
-    Each(F),
-}
-
 /// The background's radiance when no pixel's ray changes it: the constant
 /// background without an environment, or an environment whose SH has only
 /// the constant band (its value is then the same in every direction, bit
@@ -283,10 +275,11 @@ impl<'a> Tile<'a> {
         }
     }
 
-    /// A hair fragment at tile pixel `k` over the samples `covers` accepts,
-    /// at the depth it gives each (coverage mode; `depth`, the pixel
-    /// centre's, is kept for the fragment): collected when it is nearest at
-    /// any of them.
+    /// A hair fragment at tile pixel `k` over its samples (coverage mode;
+    /// `depth`, the pixel centre's, is kept for the fragment): `cover`
+    /// takes the samples where it lies nearest into the buffer, given the
+    /// pixel's points and the fragment's id, and says whether it took any;
+    /// the fragment is collected if so.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn sampled_fragment(
@@ -298,19 +291,13 @@ impl<'a> Tile<'a> {
         fiber: Fiber,
         color: Option<Vec3>,
         line: [f32; 4],
-        depth_lo: f32,
-        covers: Covers<impl FnMut([f32; 2]) -> Option<f32>>,
+        cover: impl FnOnce(&mut SampleBuffer, &[[f32; 2]], u32) -> bool,
     ) {
         let Some((pts, buf)) = &mut self.samples else {
             return;
         };
         let id = self.pending.k.len() as u32;
-        let pix = pts.pixel(k);
-        let took = match covers {
-            Covers::Strand(seg) => buf.cover_strand(k, id, depth_lo, pix, &seg),
-            Covers::Each(mut f) => buf.cover(k, id, depth_lo, |s| f(pix[s])),
-        };
-        if took {
+        if cover(buf, pts.pixel(k), id) {
             self.fragments += 1;
             self.pending.push(k, depth, 1.0, p, t, fiber);
             // NaN: not shaded yet (a card, or per-fragment shading)
@@ -475,8 +462,7 @@ impl<'a> Tile<'a> {
                             fiber,
                             color,
                             line,
-                            lo,
-                            Covers::<fn([f32; 2]) -> Option<f32>>::Strand(seg),
+                            |buf, pix, id| buf.cover_strand(k, id, lo, pix, &seg),
                         );
                     } else {
                         self.hair_fragment(k, depth, cov, pw, tangent, fiber, color);
@@ -529,12 +515,13 @@ impl<'a> Tile<'a> {
                         Fiber::NONE,
                         None,
                         no_line,
-                        depth,
-                        Covers::Each(|_| {
-                            s += 1;
-                            (unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha)
-                                .then_some(depth)
-                        }),
+                        |buf, _, id| {
+                            buf.cover(k, id, depth, |_| {
+                                s += 1;
+                                (unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha)
+                                    .then_some(depth)
+                            })
+                        },
                     );
                 } else {
                     self.hair_fragment(k, depth, alpha, pw, t.tangent, Fiber::NONE, None);
