@@ -1,12 +1,16 @@
 #!/bin/bash
-# The checks that need the GPU machine, in one run: converged references of the held-out heads
-# (Mitsuba cuda_ad_rgb), Mitsuba at equal error against the quality presets
-# (scripts/mitsuba_equal_error.py), and thread scaling (scripts/thread_scaling.py).
+# The checks that need the GPU machine, in one run, each step cut off at its own time limit:
+#   separated  converged Mitsuba references (llvm_ad_rgb on the 16 CPU cores) of the heads whose fibers
+#              do not overlap (scripts/separated_heads.py);
+#   held_out   references of the held-out heads (scripts/held_out_heads.py);
+#   scaling    thread scaling (scripts/thread_scaling.py);
+#   equal      Mitsuba cuda_ad_rgb at each preset's error (scripts/mitsuba_equal_error.py).
+# STEPS picks them (default: separated scaling equal).
 #
 # Before, here: ../shared/tools/gpu_site.sh (packs Mitsuba, drjit and this checkout's wheel into .dev/)
 # and cp ../shared/references/demo_head_640.exr .dev/. Then, on the GPU machine, from the project root
 # (carry .dev):  bash scripts/gpu_checks.sh
-# Writes $OUT/log.txt and $OUT/results.tar (docs/equal_error*, docs/scaling*, tests/data/held_out/*.exr),
+# Writes $OUT/log.txt and $OUT/results.tar (docs/equal_error*, docs/scaling*, the references written),
 # packed again after each step so that a step cut short keeps the ones before it.
 set -u
 out=${OUT:-/tmp/gpu_checks}
@@ -17,9 +21,13 @@ fi
 export PYTHONUNBUFFERED=1
 py=${PY:-python3}
 variant=${VARIANT:-cuda_ad_rgb}
-pack() { tar cf "$out/results.tar" docs/equal_error* docs/scaling* tests/data/held_out/*.exr 2>/dev/null; }
-refs() {  # refs SPP SECONDS HEADS
-  timeout "$2" $py scripts/held_out_heads.py /tmp/held --spp "$1" --depth2-spp "${D2_SPP:-1024}" --variant "$variant" --heads "$3"
+pack() {
+  tar cf "$out/results.tar" docs/equal_error* docs/scaling* $(ls /tmp/held/*.exr 2>/dev/null | sed 's|/tmp/held|tests/data/held_out|') \
+    tests/data/separated/*.exr tests/data/separated/*.txt 2>/dev/null
+}
+held_out() {  # held_out SPP SECONDS HEADS
+  timeout "$2" $py scripts/held_out_heads.py /tmp/held --spp "$1" --depth2-spp "${D2_SPP:-1024}" --variant llvm_ad_rgb \
+    --heads "$3"
   cp /tmp/held/*.exr tests/data/held_out/ 2>/dev/null
   pack
 }
@@ -27,11 +35,23 @@ refs() {  # refs SPP SECONDS HEADS
   nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
   lscpu | grep -E 'Model name|^CPU\(s\)'
   $py -c "import hairshade as hs, mitsuba as mi; print(hs.__version__, hs._native.simd_level(), mi.__version__)"
-  refs ${SPP:-4096} ${REFS_S:-90} curly_auburn_point,wavy_black_env,wavy_ginger_back,straight_brown_back
-  refs ${BLOND_SPP:-16384} ${BLOND_S:-120} clumped_blond_key,curly_blond_env,wavy_blond_rim
-  timeout ${EQUAL_S:-180} $py scripts/mitsuba_equal_error.py --variant "$variant" --max-spp ${MAX_SPP:-1024} \
-    --demo-truth .dev/demo_head_640.exr
-  pack
-  timeout ${SCALING_S:-200} $py scripts/thread_scaling.py --threads ${THREADS:-1,16,8,4,2} --size ${SIZE:-1280x720}
-  pack
+  for step in ${STEPS:-separated scaling equal}; do
+    echo "== $step $(date +%T)"
+    case $step in
+      separated)
+        rm -f tests/data/separated/*.txt
+        timeout ${SEPARATED_S:-200} $py scripts/separated_heads.py --reference ${SEP_SPP:-2048} --depth2 ${SEP_D2_SPP:-512} \
+          --heads sep_straight_blond_back,sep_wavy_blond_rim,sep_curly_blond_point,sep_straight_brown_key ;;
+      held_out)
+        held_out ${SPP:-4096} ${REFS_S:-90} curly_auburn_point,wavy_black_env,wavy_ginger_back,straight_brown_back
+        held_out ${BLOND_SPP:-16384} ${BLOND_S:-120} clumped_blond_key,curly_blond_env,wavy_blond_rim ;;
+      scaling)
+        timeout ${SCALING_S:-200} $py scripts/thread_scaling.py --threads ${THREADS:-1,16,8,4,2} --size ${SIZE:-1280x720} --repeats ${REPEATS:-2} ;;
+      equal)
+        timeout ${EQUAL_S:-180} $py scripts/mitsuba_equal_error.py --variant "$variant" --max-spp ${MAX_SPP:-1024} \
+          --demo-truth .dev/demo_head_640.exr ;;
+    esac
+    pack
+  done
+  echo "== done $(date +%T)"
 } 2>&1 | tee "$out/log.txt"
