@@ -27,6 +27,11 @@ different strands come closer than two radii:
   (a few in a thousand: the statistics say how many), greedily, the
   strand in the most pairs first.
 
+The strands are drawn as their polyline (the scenes' default curve) by
+the rasterizer and by both path tracers: the separation holds for the
+polyline, and a B-spline of the same vertices cuts its corners and can
+overlap again.
+
 The relaxation is deterministic (numpy and scipy only, no random numbers)
 and takes minutes; its strands are written as ``GEOMETRY.hair`` (float32)
 beside the scenes, and the scenes read them. Writes OUT/GEOMETRY.hair,
@@ -35,7 +40,7 @@ max_depth 64, `llvm_ad_rgb` unless --variant, the mean of two halves of
 SPP samples, seeds 1 and 2), with --depth2 OUT/NAME_depth2.exr (max_depth
 2), and OUT/NAME.txt with what each took and the halves' relMSE. The Cycles
 references: `scripts/make_cycles_reference.py OUT/NAME.json
-tests/data/cycles/NAME.exr`.
+tests/data/cycles/NAME.exr --spp 1024 --curve scene`.
 """
 
 from __future__ import annotations
@@ -90,11 +95,17 @@ def segment_gaps(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray)
     d1, d2, r = a1 - a0, b1 - b0, a0 - b0
     a, e = (d1 * d1).sum(1), (d2 * d2).sum(1)
     b, c, f = (d1 * d2).sum(1), (d1 * r).sum(1), (d2 * r).sum(1)
+    tiny = 1e-300
     den = a * e - b * b
-    s = np.where(den > 1e-14 * a * e, np.clip((b * f - c * e) / np.maximum(den, 1e-300), 0.0, 1.0), 0.0)
-    t = (b * s + f) / e
-    s = np.where(t < 0.0, np.clip(-c / a, 0.0, 1.0), np.where(t > 1.0, np.clip((b - c) / a, 0.0, 1.0), s))
+    s = np.where(den > 1e-14 * a * e, np.clip((b * f - c * e) / np.maximum(den, tiny), 0.0, 1.0), 0.0)
+    t = (b * s + f) / np.maximum(e, tiny)
+    s = np.where(t < 0.0, np.clip(-c / np.maximum(a, tiny), 0.0, 1.0),
+                 np.where(t > 1.0, np.clip((b - c) / np.maximum(a, tiny), 0.0, 1.0), s))
     t = np.clip(t, 0.0, 1.0)
+    # a segment of zero length is its point
+    s, t = np.where(a <= tiny, 0.0, s), np.where(e <= tiny, 0.0, t)
+    s = np.where((e <= tiny) & (a > tiny), np.clip(-c / np.maximum(a, tiny), 0.0, 1.0), s)
+    t = np.where((a <= tiny) & (e > tiny), np.clip(f / np.maximum(e, tiny), 0.0, 1.0), t)
     return a0 + d1 * s[:, None] - (b0 + d2 * t[:, None]), s, t
 
 

@@ -1,0 +1,197 @@
+"""Two truths on heads whose fibers do not overlap (scripts/separated_heads.py):
+Mitsuba's and Cycles' references against each other, and the quality presets
+against both. Writes docs/separated.md and docs/separated.csv.
+
+    python scripts/separated_compare.py [--out docs]
+
+Per head: the relaxation (strands kept, overlap before and after); Cycles /
+Mitsuba per channel, their relMSE and each one's noise (its halves' relMSE);
+each preset's mean per channel over each truth, relMSE against each, the
+multiple-scattering part (render minus the same render without multiple
+scattering, over Mitsuba's max_depth 64 minus max_depth 2) and the frame
+time (best of 2 after a frame that builds maps, lighting and volume solve).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import hairshade as hs  # noqa: E402
+from doc_tables import write_csv, write_markdown  # noqa: E402
+from separated_heads import HEADS, OUT as SEPARATED  # noqa: E402
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+CYCLES = os.path.join(ROOT, "tests", "data", "cycles")
+# (label, settings): the presets, and accurate with dual scattering
+CONFIGS = (("fast", {"quality": "fast"}), ("balanced", {"quality": "balanced"}),
+           ("accurate", {"quality": "accurate"}),
+           ("accurate, dual", {"quality": "accurate", "multiple_scattering": "dual"}),
+           ("accurate, volume 64 cells, 2^19 photons",
+            {"quality": "accurate", "multiple_scattering": {"volume": {"resolution": 64, "photons": 1 << 19}}}))
+
+
+def mean(a: np.ndarray) -> np.ndarray:
+    return a.reshape(-1, 3).mean(0)
+
+
+def fmt(v: np.ndarray) -> str:
+    return "/".join(f"{x:.3f}" for x in v)
+
+
+def mitsuba_noise(name: str) -> tuple[float, float]:
+    """The halves relMSE of NAME.exr and NAME_depth2.exr (OUT/NAME.txt)."""
+    found = {}
+    for line in open(os.path.join(SEPARATED, f"{name}.txt")):
+        m = re.match(r"(\S+): .*halves relMSE ([0-9.e+-]+),", line)
+        if m:
+            found[m.group(1)] = float(m.group(2))
+    return found.get(name, float("nan")), found.get(f"{name}_depth2", float("nan"))
+
+
+def frame(scene: hs.Scene, settings: dict) -> tuple[np.ndarray, float, float]:
+    """The image, the best of 2 frames after a first, and the first (maps, lighting, volume solve)."""
+    t0 = time.perf_counter()
+    hs.render(scene, progress=False, **settings)
+    first = time.perf_counter() - t0
+    best = float("inf")
+    for _ in range(2):
+        t0 = time.perf_counter()
+        img = hs.render(scene, progress=False, **settings)
+        best = min(best, time.perf_counter() - t0)
+    return img, best, first
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default=os.path.join(ROOT, "docs"))
+    args = ap.parse_args()
+    from hairshade.demo import cpu_name, preset_scene
+
+    rows, heads = [], []
+    for name, h in HEADS.items():
+        mit_path, cyc_path = os.path.join(SEPARATED, f"{name}.exr"), os.path.join(CYCLES, f"{name}.exr")
+        if not (os.path.exists(mit_path) and os.path.exists(cyc_path)):
+            print(f"{name}: no Mitsuba or Cycles reference, left out", flush=True)
+            continue
+        mit, cyc = hs.read_exr(mit_path), hs.read_exr(cyc_path)
+        mit2 = hs.read_exr(os.path.join(SEPARATED, f"{name}_depth2.exr"))
+        info = json.load(open(os.path.join(CYCLES, f"{name}.json")))
+        relax = json.load(open(os.path.join(SEPARATED, f"{h['geometry']}.relax.json")))
+        m_noise, m2_noise = mitsuba_noise(name)
+        cyc2_path = os.path.join(CYCLES, f"{name}_depth2.exr")  # Cycles with 0 bounces: direct light
+        cyc2 = hs.read_exr(cyc2_path) if os.path.exists(cyc2_path) else None
+        split = ("", "") if cyc2 is None else (fmt(mean(cyc2) / mean(mit2)),
+                                                fmt((mean(cyc) - mean(cyc2)) / (mean(mit) - mean(mit2))))
+        heads.append(dict(
+            head=name, geometry=h["geometry"], strands=relax["strands"], left_out=relax["strands_left_out"],
+            overlap_before=relax["overlap_before"], overlap_after=relax["overlap_after"],
+            min_distance_radii=relax["min_distance_radii_float32"],
+            cycles_over_mitsuba=fmt(mean(cyc) / mean(mit)), rel_mse_cycles_mitsuba=hs.rel_mse(cyc, mit),
+            cycles_noise=info["halves_rel_mse"], mitsuba_noise=m_noise, mitsuba_depth2_noise=m2_noise,
+            cycles_halves_spread=float(np.max(np.abs(np.divide(*info["halves_mean_rgb"]) - 1))),
+            cycles_spp=2 * info["spp_per_half"], cycles_seconds=sum(info["seconds_per_half"]),
+            ms_share=fmt(1 - mean(mit2) / mean(mit)), direct_cycles_over_mitsuba=split[0],
+            multiple_cycles_over_mitsuba=split[1]))
+        print(heads[-1], flush=True)
+        for label, settings in CONFIGS:
+            scene = preset_scene(os.path.join(SEPARATED, f"{name}.json"))  # nothing cached from the row before
+            img, secs, first = frame(scene, settings)
+            single = hs.render(scene, progress=False, quality=settings["quality"], multiple_scattering="none")
+            ms = (mean(img) - mean(single)) / (mean(mit) - mean(mit2))
+            rows.append(dict(head=name, config=label, over_mitsuba=fmt(mean(img) / mean(mit)),
+                             rel_mse_mitsuba=hs.rel_mse(img, mit), over_cycles=fmt(mean(img) / mean(cyc)),
+                             rel_mse_cycles=hs.rel_mse(img, cyc), ms_part=fmt(ms), frame_s=round(secs, 3),
+                             first_frame_s=round(first, 3)))
+            print(rows[-1], flush=True)
+    write_csv(os.path.join(args.out, "separated.csv"), rows)
+    write_csv(os.path.join(args.out, "separated_heads.csv"), heads)
+    lines = [
+        "# Two truths on hair whose fibers do not overlap",
+        "",
+        f"Generated by `python scripts/separated_compare.py` on {cpu_name()}; data `separated.csv`, "
+        "`separated_heads.csv`.",
+        "",
+        "The generator's heads overlap: 43-65% of their strand points lie inside another strand's tube, and there "
+        "Mitsuba and Cycles disagree by up to 11% (`three_truths.md`). These heads were relaxed until no two "
+        "segments of different strands come closer than two radii (`scripts/separated_heads.py`: position-based "
+        "pushes between exact closest points of segment pairs, segment lengths kept, roots fixed, and the strands "
+        "still overlapping after 60 iterations left out). Materials carry the physical +2° tilt. Mitsuba: `path`, "
+        "max_depth 64, `llvm_ad_rgb` (`tests/data/separated/*.txt` say the samples, time and noise); Cycles: "
+        "`scripts/make_cycles_reference.py`, Principled Hair (Chiang), 64 bounces.",
+        "",
+        "## The heads and their two truths",
+        "",
+        "Overlap: the share of points along the strands (8 a segment) inside another strand's tube, before and "
+        "after relaxing. Noise: relMSE between a reference's two halves. MS share: the part of Mitsuba's mean "
+        "that multiple scattering brings (1 − max_depth 2 / max_depth 64). Direct, multiple: Cycles with no "
+        "bounce (`--bounces 0`, 2 × 512 spp) against Mitsuba's max_depth 2, and the rest (the multiple "
+        "scattering) against the rest.",
+        "",
+        "| head | strands (left out) | overlap before → after | min gap / radius | Cycles / Mitsuba | relMSE "
+        "(Cycles noise, Mitsuba noise) | Cycles halves' means apart | MS share | Cycles / Mitsuba: direct, "
+        "multiple |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in heads:
+        lines.append(f"| {r['head']} | {r['strands']} ({r['left_out']}) | {100 * r['overlap_before']:.0f}% → "
+                     f"{100 * r['overlap_after']:.1f}% | {r['min_distance_radii']:.3f} | {r['cycles_over_mitsuba']} | "
+                     f"{r['rel_mse_cycles_mitsuba']:.2e} ({r['cycles_noise']:.1e}, {r['mitsuba_noise']:.1e}) | "
+                     f"{100 * r['cycles_halves_spread']:.2f}% | {r['ms_share']} | {r['direct_cycles_over_mitsuba']}, "
+                     f"{r['multiple_cycles_over_mitsuba']} |")
+    lines += [
+        "",
+        "## The presets against both",
+        "",
+        "Mean per channel as a ratio to each truth (R/G/B), relMSE against each, the multiple-scattering part "
+        "over Mitsuba's, the frame (best of 2 after one that builds maps, lighting and the volume solve) and "
+        "that first frame (the scene loaded afresh for each row; a volume solve of the same settings is kept "
+        "from the row before: `balanced` and `accurate` share theirs).",
+        "",
+        "| head | configuration | / Mitsuba | relMSE vs Mitsuba | / Cycles | relMSE vs Cycles | MS part / Mitsuba's "
+        "| frame s | first s |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in rows:
+        lines.append(f"| {r['head']} | {r['config']} | {r['over_mitsuba']} | {r['rel_mse_mitsuba']:.2e} | "
+                     f"{r['over_cycles']} | {r['rel_mse_cycles']:.2e} | {r['ms_part']} | {r['frame_s']:.2f} | "
+                     f"{r['first_frame_s']:.2f} |")
+    spread = lambda key: max(abs(float(x) - 1) for r in heads for x in r[key].split("/") if x)  # noqa: E731
+    acc = [r for r in rows if r["config"] == "accurate"]
+    worst = lambda key: max(abs(float(x) - 1) for r in acc for x in r[key].split("/"))  # noqa: E731
+    FINE = CONFIGS[-1][0]
+    get = lambda h, c: next(r for r in rows if r["head"] == h and r["config"] == c)  # noqa: E731
+    dev = lambda h, c: max(abs(float(x) - 1) for x in get(h, c)["over_mitsuba"].split("/"))  # noqa: E731
+    lines += [
+        "",
+        "## What they say",
+        "",
+        f"- The two path tracers agree where fibers do not overlap: their means differ by at most "
+        f"{100 * spread('cycles_over_mitsuba'):.1f}% per channel on these heads (on the generator's overlapping "
+        "heads by up to 11%, `three_truths.md`). Where the split was rendered, the multiple scattering agrees "
+        f"within {100 * spread('multiple_cycles_over_mitsuba'):.1f}%; what is left is in the direct light "
+        f"(up to {100 * spread('direct_cycles_over_mitsuba'):.1f}%, the wavy head's rim light).",
+        f"- `accurate` is within {100 * worst('over_mitsuba'):.1f}% per channel of Mitsuba and "
+        f"{100 * worst('over_cycles'):.1f}% of Cycles on every head, relMSE "
+        f"{min(r['rel_mse_mitsuba'] for r in acc):.2e} to {max(r['rel_mse_mitsuba'] for r in acc):.2e} against "
+        "Mitsuba. Light hair is not 13-17% too dark on these heads: that figure was measured against truths of "
+        "overlapping fibers, where Mitsuba scatters light inside interpenetrating tubes that Cycles passes.",
+        "- A finer volume grid with more photons (64 cells, 2^19 photons): " + "; ".join(
+            f"{h}: worst channel {100 * dev(h, 'accurate'):.1f}% → {100 * dev(h, FINE):.1f}%, relMSE "
+            f"{get(h, 'accurate')['rel_mse_mitsuba']:.2e} → {get(h, FINE)['rel_mse_mitsuba']:.2e}"
+            for h in dict.fromkeys(r["head"] for r in rows)) + " (against Mitsuba; its solve is in the first "
+        "frame's time).",
+    ]
+    write_markdown(os.path.join(args.out, "separated.md"), lines)
+
+
+if __name__ == "__main__":
+    main()
