@@ -3,6 +3,7 @@ Mitsuba and Cycles: a truth for multiple scattering that does not depend
 on how a path tracer treats interpenetrating tubes.
 
     .venv/bin/python scripts/separated_heads.py [--out tests/data/separated] [--heads a,b] [--reference SPP] [--depth2 SPP]
+        [--seeds 1 2] [--merge DIR]
 
 The `head` generator's strands, and those reshaped by `held_out_heads.py`,
 overlap: 43-65% of their points lie inside another strand's tube
@@ -38,7 +39,9 @@ beside the scenes, and the scenes read them. Writes OUT/GEOMETRY.hair,
 OUT/NAME.json, and with --reference OUT/NAME.exr (Mitsuba `path`,
 max_depth 64, `llvm_ad_rgb` unless --variant, the mean of two halves of
 SPP samples, seeds 1 and 2), with --depth2 OUT/NAME_depth2.exr (max_depth
-2), and OUT/NAME.txt with what each took and the halves' relMSE. The Cycles
+2), and OUT/NAME.txt with what each took and the halves' relMSE; --merge
+DIR averages each OUT/NAME.exr with DIR/NAME.exr (the same spp rendered
+with other --seeds) and notes their relMSE in OUT/NAME.txt. The Cycles
 references: `scripts/make_cycles_reference.py OUT/NAME.json
 tests/data/cycles/NAME.exr --spp 1024 --curve scene`.
 """
@@ -237,6 +240,9 @@ def main() -> int:
     ap.add_argument("--reference", type=int, default=0, metavar="SPP", help="Mitsuba max_depth 64, halves of SPP")
     ap.add_argument("--depth2", type=int, default=0, metavar="SPP", help="Mitsuba max_depth 2, halves of SPP")
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--seeds", type=int, nargs=2, default=[1, 2], help="the halves' sampler seeds")
+    ap.add_argument("--merge", metavar="DIR",
+                    help="average each OUT/NAME.exr with DIR/NAME.exr (the same spp, other seeds) into OUT/NAME.exr")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     names = a.heads.split(",")
@@ -253,6 +259,21 @@ def main() -> int:
             print(f"{geometry}: {stats}", flush=True)
     import hairshade as hs
 
+    if a.merge:
+        for name in names:
+            other = os.path.join(a.merge, f"{name}.exr")
+            if not os.path.exists(other):
+                continue
+            mine, theirs = hs.read_exr(os.path.join(a.out, f"{name}.exr")), hs.read_exr(other)
+            line = (f"{name}: the mean of the reference above and {os.path.basename(other)} rendered with other "
+                    f"seeds ({open(os.path.join(a.merge, f'{name}.txt')).read().strip()}): halves relMSE "
+                    f"{hs.rel_mse(mine, theirs):.2e}, halves' means {mine.reshape(-1, 3).mean(0)} "
+                    f"{theirs.reshape(-1, 3).mean(0)}")
+            hs.write_exr(os.path.join(a.out, f"{name}.exr"), (0.5 * (mine + theirs)).astype(np.float32))
+            with open(os.path.join(a.out, f"{name}.txt"), "a") as f:
+                f.write(line + "\n")
+            print(line, flush=True)
+        return 0
     for name in names:
         path = write_scene(a.out, name)
         if not (a.reference or a.depth2):
@@ -266,10 +287,11 @@ def main() -> int:
                 continue
             t = time.perf_counter()
             halves = [hm.render(scene, spp=spp, integrator="path", max_depth=depth, seed=s, passes=-(-spp // 1024),
-                                progress=False, variant=a.variant) for s in (1, 2)]
+                                progress=False, variant=a.variant) for s in a.seeds]
             ref = 0.5 * (halves[0] + halves[1])
             hs.write_exr(os.path.join(a.out, f"{name}{suffix}.exr"), ref.astype(np.float32))
-            line = (f"{name}{suffix}: {a.variant}, 2 x {spp} spp, max_depth {depth}: halves relMSE "
+            line = (f"{name}{suffix}: {a.variant}, 2 x {spp} spp (seeds {a.seeds[0]}, {a.seeds[1]}), max_depth {depth}: "
+                    f"halves relMSE "
                     f"{hs.rel_mse(halves[0], halves[1]):.2e}, halves' means {halves[0].reshape(-1, 3).mean(0)} "
                     f"{halves[1].reshape(-1, 3).mean(0)}, {time.perf_counter() - t:.0f} s")
             print(line, flush=True)

@@ -99,8 +99,8 @@ def both_truths(name: str) -> tuple[np.ndarray, np.ndarray]:
 # it may stray: the two halves of each reference have means within 0.1% (Mitsuba) and 0.15% (Cycles)
 # of each other, so a re-rendered pair stays within 0.5% of these ratios.
 AGREEMENT = {
-    "sep_straight_blond_back": (1.0027, 1.0023, 1.0014),
-    "sep_wavy_blond_rim": (1.0164, 1.0197, 1.0241),
+    "sep_straight_blond_back": (1.0029, 1.0024, 1.0015),
+    "sep_wavy_blond_rim": (1.0163, 1.0197, 1.0243),
     "sep_curly_blond_point": (1.0004, 1.0002, 0.9997),
     "sep_straight_brown_key": (0.9960, 0.9947, 0.9936),
 }
@@ -122,10 +122,10 @@ def test_03_mitsuba_and_cycles_agree_where_fibers_do_not_overlap(name):
 def test_04_accurate_against_both_truths(name):
     """The accurate preset against truths that do not depend on overlapping
     fibers (docs/separated.md): every channel's mean within 6% of Mitsuba's
-    and 7.5% of Cycles' (measured worst: 5.1% and 6.7%, the wavy head's red,
+    and 7.5% of Cycles' (measured worst: 5.2% and 6.7%, the wavy head's red,
     where Cycles' own direct light is 3.3% above Mitsuba's), relMSE against
-    Mitsuba at most 4e-3 (measured 3.9e-4 to 3.7e-3; the references' own
-    noise is at most 1.4e-3 between halves, a quarter of that for their mean)."""
+    Mitsuba at most 4e-3 (measured 3.9e-4 to 3.6e-3; the references' own
+    noise is at most 7.1e-4 between halves, a quarter of that for their mean)."""
     mit, cyc = both_truths(name)
     img = hs.render(preset_scene(SEPARATED / f"{name}.json"), quality="accurate", progress=False)
     assert np.all(np.abs(mean(img) / mean(mit) - 1) < 0.06), mean(img) / mean(mit)
