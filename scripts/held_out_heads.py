@@ -129,6 +129,23 @@ def write_head(out: str, name: str) -> str:
     return path
 
 
+def render_reference(scene: hs.Scene, path: str, spp: int, depth: int, seeds=(1, 2),
+                     variant: str | None = None) -> str:
+    """Mitsuba `path` at max_depth DEPTH, two halves of SPP samples with the
+    given seeds; writes their mean to PATH and returns a line saying what it
+    took and the halves' relMSE (the reference's own noise) and means."""
+    from hairshade import mitsuba as hm
+
+    t = time.perf_counter()
+    halves = [hm.render(scene, spp=spp, integrator="path", max_depth=depth, seed=s, passes=-(-spp // 1024),
+                        progress=False, variant=variant) for s in seeds]
+    hs.write_exr(path, (0.5 * (halves[0] + halves[1])).astype(np.float32))
+    return (f"{os.path.splitext(os.path.basename(path))[0]}: {variant or hm.default_variant()}, 2 x {spp} spp "
+            f"(seeds {seeds[0]}, {seeds[1]}), max_depth {depth}: halves relMSE {hs.rel_mse(halves[0], halves[1]):.2e}, "
+            f"halves' means {halves[0].reshape(-1, 3).mean(0)} {halves[1].reshape(-1, 3).mean(0)}, "
+            f"{time.perf_counter() - t:.0f} s")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("out")
@@ -146,20 +163,11 @@ def main() -> int:
         path = write_head(a.out, name)
         if a.no_reference:
             continue
-        from hairshade import mitsuba as hm
-
         scene = hs.Scene.load(path)
         for depth, spp, suffix in ((64, a.spp, ""), (2, a.depth2_spp, "_depth2")):
-            if spp < 1:
-                continue
-            t = time.perf_counter()
-            halves = [hm.render(scene, spp=spp, integrator="path", max_depth=depth, seed=s, passes=-(-spp // 1024), progress=False,
-                                variant=a.variant) for s in (1, 2)]
-            ref = 0.5 * (halves[0] + halves[1])
-            hs.write_exr(os.path.join(a.out, f"{name}{suffix}.exr"), ref)
-            print(f"{name}{suffix}: {a.variant or hm.default_variant()}, 2 x {spp} spp, max_depth {depth}: halves relMSE "
-                  f"{hs.rel_mse(halves[0], halves[1]):.2e}, mean {ref.reshape(-1, 3).mean(0)}, "
-                  f"{time.perf_counter() - t:.0f} s", flush=True)
+            if spp >= 1:
+                print(render_reference(scene, os.path.join(a.out, f"{name}{suffix}.exr"), spp, depth,
+                                       variant=a.variant), flush=True)
     return 0
 
 

@@ -279,24 +279,13 @@ def main() -> int:
         path = write_scene(a.out, name)
         if not (a.reference or a.depth2):
             continue
-        from hairshade import mitsuba as hm
-
         scene = hs.Scene.load(path)
         lines = []
         for depth, spp, suffix in ((64, a.reference, ""), (2, a.depth2, "_depth2")):
-            if spp < 1:
-                continue
-            t = time.perf_counter()
-            halves = [hm.render(scene, spp=spp, integrator="path", max_depth=depth, seed=s, passes=-(-spp // 1024),
-                                progress=False, variant=a.variant) for s in a.seeds]
-            ref = 0.5 * (halves[0] + halves[1])
-            hs.write_exr(os.path.join(a.out, f"{name}{suffix}.exr"), ref.astype(np.float32))
-            line = (f"{name}{suffix}: {a.variant}, 2 x {spp} spp (seeds {a.seeds[0]}, {a.seeds[1]}), max_depth {depth}: "
-                    f"halves relMSE "
-                    f"{hs.rel_mse(halves[0], halves[1]):.2e}, halves' means {halves[0].reshape(-1, 3).mean(0)} "
-                    f"{halves[1].reshape(-1, 3).mean(0)}, {time.perf_counter() - t:.0f} s")
-            print(line, flush=True)
-            lines.append(line)
+            if spp >= 1:
+                lines.append(ho.render_reference(scene, os.path.join(a.out, f"{name}{suffix}.exr"), spp, depth,
+                                                 seeds=a.seeds, variant=a.variant))
+                print(lines[-1], flush=True)
         with open(os.path.join(a.out, f"{name}.txt"), "a") as f:
             f.write("\n".join(lines) + "\n")
     return 0
