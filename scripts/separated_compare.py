@@ -279,7 +279,7 @@ def main() -> None:
         f"{min(r['rel_mse_mitsuba'] for r in acc):.2e} to {max(r['rel_mse_mitsuba'] for r in acc):.2e} against "
         "Mitsuba. The blond heads are " + ", ".join(
             f"{r['over_mitsuba']} ({r['head']})" for r in acc if "blond" in r["head"]) + " of Mitsuba's means, "
-        "above the 0.89-0.95 of the overlapping held-out wavy_blond_rim and clumped_blond_key (`volume.md`, "
+        "above the 0.90-0.96 of the overlapping held-out wavy_blond_rim and clumped_blond_key (`volume.md`, "
         "the same preset): part of that darkness is the references' light scattered inside interpenetrating tubes.",
         "- A finer volume grid with more photons (64 cells, 2^19 photons): " + "; ".join(
             f"{h}: worst channel {100 * dev(h, 'accurate'):.1f}% → {100 * dev(h, FINE):.1f}%, relMSE "

@@ -126,11 +126,11 @@ def test_04_accurate_against_both_truths(name):
     """The accurate preset against truths that do not depend on overlapping
     fibers (docs/separated.md): every channel's mean over the pixels that see
     hair or the head within 4.5% of Mitsuba's and of Cycles' (measured
-    worst: 3.1% and 3.2%, the curly head's red, whose multiple scattering is
-    0.94 of the truth's), relMSE against Mitsuba at most 4.5e-3 (measured
-    4.1e-4 to 3.9e-3, the photons the same in every run: the margin covers
-    other CPUs' rounding; the references' own noise is at most 7.1e-4
-    between halves, a quarter of that for their mean)."""
+    worst: 2.4%, the straight backlit head's red, whose multiple scattering
+    is 1.08 of the truth's, and 2.0%), relMSE against Mitsuba at most
+    4.5e-3 (measured 4.1e-4 to 4.05e-3, the photons the same in every run:
+    the margin covers other CPUs' rounding; the references' own noise is at
+    most 7.1e-4 between halves, a quarter of that for their mean)."""
     mit, cyc, k = both_truths(name)
     img = hs.render(preset_scene(SEPARATED / f"{name}.json"), quality="accurate", progress=False)
     over_mit, over_cyc = img[k].mean(0) / mit[k].mean(0), img[k].mean(0) / cyc[k].mean(0)

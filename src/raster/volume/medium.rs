@@ -192,7 +192,7 @@ impl Medium {
     /// furnace (`docs/volume.md`, where the truth is 1): tallied over
     /// whole cells and their neighbours, the hair read 0.857 on average
     /// (its multiple scattering 0.84 of Mitsuba's), tallied over the
-    /// voxels holding hair 0.894 (0.885).
+    /// voxels holding hair 0.894 (0.885; both read at each bin's mean direction).
     fn build_cells(&mut self, free: &[f32]) {
         let c = &mut self.cells;
         let cd = c.dims;

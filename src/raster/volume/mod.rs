@@ -12,12 +12,15 @@
 //!    lobes), reflect off opaque spheres, with Russian roulette and at most
 //!    [`trace::MAX_EVENTS`] events.
 //! 3. **The radiance**: after its first scattering, a photon's track length
-//!    is tallied per voxel and direction bin (octahedral, [`bins`]): the
-//!    fluence `Φ_b(x) = ∫_b L(x, ω) dω` of light scattered at least once.
+//!    is tallied per cell (of the voxels holding hair) and direction bin
+//!    (octahedral, [`bins`]): the fluence `Φ_b(x) = ∫_b L(x, ω) dω` of
+//!    light scattered at least once, with its mean direction.
 //! 4. **A fragment** at `x` with tangent `t` seen from `v` reads it
-//!    (trilinear over the voxels that hold hair) and scatters it once more
-//!    by the far field: `L_ms = Σ_b f(t, v, −ω_b) Φ_b(x)`, where `f × E` is
-//!    what a directional light of irradiance `E` gives.
+//!    (trilinear over the cells that hold hair) and scatters it once more
+//!    by the far field: `L_ms = Σ_b f_σb(t, v, −ω_b) Φ_b(x)`, where `f × E`
+//!    is what a directional light of irradiance `E` gives, `ω_b` the bin's
+//!    mean direction and `f_σb` the response blurred by the spread of the
+//!    bin's light about it ([`response`]).
 //!
 //! The direct light stays the renderer's single scattering (traced or
 //! mapped shadows); the volume holds only light that scattered, so nothing
@@ -96,11 +99,12 @@ pub struct VolumeRadiance {
 }
 
 /// Bytes the solve of `scene` with `s` needs at most (the medium, the
-/// integer tallies and the fluence), before anything is allocated.
+/// integer tallies and the fluence, the response table), before anything
+/// is allocated.
 pub fn bytes_estimate(scene: &Scene, s: &VolumeSettings) -> usize {
     let medium = medium::bytes_estimate(scene, s.resolution * medium::FINE);
     let cells = medium::cells_estimate(scene, s.resolution * medium::FINE);
-    medium + cells * s.bins * s.bins * trace::WORDS * (8 + 4)
+    medium + cells * s.bins * s.bins * trace::WORDS * (8 + 4) + response::ResponseTable::BYTES
 }
 
 /// What a solve reads: the scene, its strands' world segments and, when
@@ -321,8 +325,11 @@ impl VolumeRadiance {
         let mut out = Vec3::ZERO;
         for a in acc.iter() {
             if a[0] + a[1] + a[2] > 0.0 {
-                // the light comes from against its mean propagation
-                let l = -Vec3::new(a[3], a[4], a[5]).normalize_or_zero();
+                // the light comes from against its mean propagation, spread
+                // about it as its mean resultant length says
+                let mean = Vec3::new(a[3], a[4], a[5]);
+                let r_bar = mean.length() * 3.0 / (a[0] + a[1] + a[2]);
+                let l = -mean.normalize_or_zero();
                 let sl = t.dot(l).clamp(-1.0, 1.0);
                 let l_n = l - t * sl;
                 let len = l_n.length();
@@ -331,7 +338,10 @@ impl VolumeRadiance {
                 } else {
                     1.0
                 };
-                out += self.response.eval(sv, sl, response::acos(cos_phi))
+                let sigma = response::spread_of(r_bar);
+                out += self
+                    .response
+                    .eval_spread(sv, sl, response::acos(cos_phi), sigma)
                     * Vec3::new(a[0], a[1], a[2]);
             }
         }
