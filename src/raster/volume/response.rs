@@ -61,6 +61,18 @@ pub fn spread_of(r_bar: f32) -> f32 {
     }
 }
 
+/// The sine axes' node `i`, in [-1, 1].
+#[inline]
+fn node(i: usize) -> f32 {
+    -1.0 + 2.0 * i as f32 / (NODES - 1) as f32
+}
+
+/// The azimuth axis' node `i`, in [0, π].
+#[inline]
+fn phi_node(i: usize) -> f32 {
+    std::f32::consts::PI * i as f32 / (NODES - 1) as f32
+}
+
 pub struct ResponseTable {
     /// [`SPREADS`] tables of `NODES³` entries.
     data: Vec<[f32; 3]>,
@@ -72,7 +84,6 @@ impl ResponseTable {
     pub fn new(f: impl Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync) -> Self {
         use rayon::prelude::*;
         let n = NODES;
-        let node = |i: usize| -1.0 + 2.0 * i as f32 / (n - 1) as f32;
         let t = Vec3::Y;
         let data = crate::threads::pool().install(|| {
             (0..n * n * n)
@@ -80,7 +91,7 @@ impl ResponseTable {
                 .map(|idx| {
                     let (iv, il, ip) = (idx / (n * n), (idx / n) % n, idx % n);
                     let (sv, sl) = (node(iv), node(il));
-                    let phi = std::f32::consts::PI * ip as f32 / (n - 1) as f32;
+                    let phi = phi_node(ip);
                     let cv = (1.0 - sv * sv).max(0.0).sqrt();
                     let cl = (1.0 - sl * sl).max(0.0).sqrt();
                     let v = Vec3::new(0.0, sv, cv);
@@ -94,11 +105,13 @@ impl ResponseTable {
                 })
                 .collect::<Vec<[f32; 3]>>()
         });
-        let mut all = data.clone();
-        for &sigma in &SPREADS[1..] {
-            all.extend(blurred(&data, sigma));
+        let levels: Vec<Vec<[f32; 3]>> = SPREADS[1..].iter().map(|&s| blurred(&data, s)).collect();
+        Self {
+            data: data
+                .into_iter()
+                .chain(levels.into_iter().flatten())
+                .collect(),
         }
-        Self { data: all }
     }
 
     /// `f` at `sin θv`, `sin θl` and φ ∈ [0, π], blurred by the angular
@@ -159,7 +172,6 @@ fn blurred(data: &[[f32; 3]], sigma: f32) -> Vec<[f32; 3]> {
     use rayon::prelude::*;
     use std::f32::consts::PI;
     let n = NODES;
-    let node = |i: usize| -1.0 + 2.0 * i as f32 / (n - 1) as f32;
     let trapezoid = |j: usize| if j == 0 || j == n - 1 { 0.5 } else { 1.0 };
     let gauss = |d: f32, s: f32| (-0.5 * (d / s) * (d / s)).exp();
     // along φ: per row il, weights[i][j] normalized over j
@@ -168,10 +180,10 @@ fn blurred(data: &[[f32; 3]], sigma: f32) -> Vec<[f32; 3]> {
             let cl = (1.0 - node(il) * node(il)).max(0.0).sqrt();
             let s = sigma / cl.max(1e-3);
             (0..n).flat_map(move |i| {
-                let pi_ = PI * i as f32 / (n - 1) as f32;
+                let pi_ = phi_node(i);
                 let w: Vec<f32> = (0..n)
                     .map(|j| {
-                        let pj = PI * j as f32 / (n - 1) as f32;
+                        let pj = phi_node(j);
                         // the distance on the circle to pj and to its mirror -pj
                         let around = |d: f32| {
                             let d = d.rem_euclid(2.0 * PI);
