@@ -369,18 +369,22 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
                     flush(run_cell, run);
                     (run_cell, run) = (cell, 0.0);
                 }
+                // the track length weighted by the voxel's fibers (none
+                // outside the voxels holding hair: their cell is MAX)
+                let mut weight = 0.0;
                 if slot != u32::MAX {
                     let s = slot as usize;
+                    weight = m.weight[s];
                     let sigma = m.sigma(s, d);
                     if sigma * len >= tau {
                         let tc = t + tau / sigma;
-                        run += tc - t;
+                        run += (tc - t) * weight;
                         collided = Some((tc, s));
                         break;
                     }
                     tau -= sigma * len;
                 }
-                run += len;
+                run += len * weight;
                 t = t1;
                 ijk[a] += step[a];
                 t_next[a] += t_delta[a];
