@@ -28,8 +28,10 @@ pub struct Medium {
     pub origin: Vec3,
     pub voxel: f32,
     pub dims: [usize; 3],
-    /// Per slot: `[S, Mxx, Myy, Mzz, Mxy, Mxz, Myz]` per unit volume.
-    pub moments: Vec<[f32; 7]>,
+    /// Per slot: `[S, Mxx, Myy, Mzz, Mxy, Mxz, Myz]` per unit volume, then
+    /// the weight of the light tallied in the voxel ([`Medium::weight`]),
+    /// beside them so that a photon's step reads both from one cache line.
+    pub moments: Vec<[f32; 8]>,
     /// Per slot: up to [`TANGENTS`] fiber tangents (zero: unused).
     pub tangents: Vec<[Vec3; TANGENTS]>,
     /// Per slot: the dense voxel index.
@@ -40,10 +42,6 @@ pub struct Medium {
     /// the cell holding it (`u32::MAX`: none), side by side for the
     /// photons' walk.
     pub slots: Vec<[u32; 2]>,
-    /// Per slot: the weight of the light tallied in its voxel, the voxel's
-    /// fiber density over the mean of the voxels holding hair (taken before
-    /// the calibration scales the cross-section).
-    pub weight: Vec<f32>,
 }
 
 /// The grid the light is tallied on: [`FINE`] medium voxels a side per
@@ -136,7 +134,7 @@ pub fn bytes_estimate(scene: &Scene, resolution: usize) -> usize {
         .sum();
     let occupied = (pieces as usize).min(dense);
     let cells = dense.div_ceil(FINE * FINE * FINE);
-    dense * 8 + occupied * (28 + TANGENTS * 12 + 8) + cells * 12
+    dense * 8 + occupied * (32 + TANGENTS * 12 + 4) + cells * 12
 }
 
 /// Cells of a medium of `scene` at `resolution` (all of them: an upper
@@ -157,7 +155,6 @@ impl Medium {
             voxel,
             dims,
             slots: vec![[u32::MAX; 2]; dims[0] * dims[1] * dims[2]],
-            weight: Vec::new(),
             moments: Vec::new(),
             tangents: Vec::new(),
             voxel_of: Vec::new(),
@@ -178,7 +175,7 @@ impl Medium {
         }
         let inv_v = 1.0 / (voxel * voxel * voxel);
         for v in &mut m.moments {
-            for x in v.iter_mut() {
+            for x in v[..7].iter_mut() {
                 *x *= inv_v;
             }
         }
@@ -188,7 +185,7 @@ impl Medium {
             .map(|&v| m.free_fraction(scene, v as usize))
             .collect();
         for (mo, &f) in m.moments.iter_mut().zip(&free) {
-            for x in mo.iter_mut() {
+            for x in mo[..7].iter_mut() {
                 *x /= f;
             }
         }
@@ -211,11 +208,9 @@ impl Medium {
     fn build_cells(&mut self, free: &[f32]) {
         let mean_s = self.moments.iter().map(|m| m[0] as f64).sum::<f64>()
             / self.moments.len().max(1) as f64;
-        self.weight = self
-            .moments
-            .iter()
-            .map(|m| (m[0] as f64 / mean_s) as f32)
-            .collect();
+        for m in &mut self.moments {
+            m[7] = (m[0] as f64 / mean_s) as f32;
+        }
         let c = &mut self.cells;
         let cd = c.dims;
         c.slot = vec![u32::MAX; cd[0] * cd[1] * cd[2]];
@@ -223,7 +218,8 @@ impl Medium {
         c.weight.clear();
         let d = self.dims;
         let per_cell = 1.0 / (FINE * FINE * FINE) as f32;
-        for ((&v, &f), &w) in self.voxel_of.iter().zip(free).zip(&self.weight) {
+        for ((&v, &f), m) in self.voxel_of.iter().zip(free).zip(&self.moments) {
+            let w = m[7];
             let v = v as usize;
             let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
             let n = ((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE;
@@ -288,7 +284,7 @@ impl Medium {
         if s == u32::MAX {
             s = self.moments.len() as u32;
             self.slots[v][0] = s;
-            self.moments.push([0.0; 7]);
+            self.moments.push([0.0; 8]);
             self.tangents.push([Vec3::ZERO; TANGENTS]);
             total.push([0.0; TANGENTS]);
             self.voxel_of.push(v as u32);
@@ -326,6 +322,14 @@ impl Medium {
             .then(|| (k * self.dims[1] + j) * self.dims[0] + i)
     }
 
+    /// The weight of the light tallied in slot `s`'s voxel: its fiber
+    /// density over the mean of the voxels holding hair (taken before the
+    /// calibration scales the cross-section).
+    #[inline]
+    pub fn weight(&self, s: usize) -> f32 {
+        self.moments[s][7]
+    }
+
     /// Fibers crossed per unit length along unit `d` in slot `s`.
     #[inline]
     pub fn sigma(&self, s: usize, d: Vec3) -> f32 {
@@ -360,7 +364,7 @@ impl Medium {
     /// Scales the fiber cross-section everywhere by `k` (calibration).
     pub fn scale(&mut self, k: f32) {
         for m in &mut self.moments {
-            for x in m.iter_mut() {
+            for x in m[..7].iter_mut() {
                 *x *= k;
             }
         }
@@ -387,9 +391,8 @@ impl Medium {
     /// Bytes held.
     pub fn bytes(&self) -> usize {
         self.slots.len() * 8
-            + self.moments.len() * (28 + TANGENTS * 12 + 4)
+            + self.moments.len() * (32 + TANGENTS * 12 + 4)
             + self.cells.slot.len() * 4
             + self.cells.cell_of.len() * 8
-            + self.weight.len() * 4
     }
 }

@@ -374,7 +374,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
                 let mut weight = 0.0;
                 if slot != u32::MAX {
                     let s = slot as usize;
-                    weight = m.weight[s];
+                    weight = m.weight(s);
                     let sigma = m.sigma(s, d);
                     if sigma * len >= tau {
                         let tc = t + tau / sigma;
