@@ -246,7 +246,7 @@ def cost(tmp: str, rows: list, md: list) -> None:
     ref = hs.read_exr(str(DENSE / f"{name}.exr"))
     sc = scene_without_settings(DENSE / f"{name}.json", tmp)
     md += ["## Cost", "", f"{name} (10k strands x 16 segments, two directional lights), `accurate` and "
-           "`balanced`, 320x180, best of 2. The solve is kept while geometry, lights, material and settings "
+           "`balanced`, 320x180, best of 2 (solves and frames; a material's first solve once). The solve is kept while geometry, lights, material and settings "
            "stay: a new view reads it again. The fiber's response table is kept per material: the solve "
            "of a new light reads it, a material's first solve also builds it (the last column). Targets: the "
            "solve at most 0.5 s per light; a new view at most 1.5x the same frame without multiple "
@@ -263,10 +263,12 @@ def cost(tmp: str, rows: list, md: list) -> None:
             d["hair"]["file"] = str((DENSE / d["hair"]["file"]).resolve())
         _, st_first, _ = timed(hs.Scene.from_dict(d), quality=q, multiple_scattering="volume")
         first = st_first["volume_ms"] / 1000
-        # a solve of its own: photons changed by one so that no earlier solve is reused
-        ms = {"volume": {"photons": (1 << 18) + (1 if q == "balanced" else 2)}}
-        _, st, _ = timed(sc, quality=q, multiple_scattering=ms)
-        solve = st["volume_ms"] / 1000
+        # solves of their own (photons changed by a few, so that no earlier solve is reused), best of 2
+        solve = np.inf
+        for extra in (1, 2):
+            ms = {"volume": {"photons": (1 << 18) + extra + (0 if q == "balanced" else 2)}}
+            _, st, _ = timed(sc, quality=q, multiple_scattering=ms)
+            solve = min(solve, st["volume_ms"] / 1000)
         t_none = min(timed(sc, quality=q, multiple_scattering="none")[2] for _ in range(2))
         t_vol = min(timed(sc, quality=q, multiple_scattering=ms)[2] for _ in range(2))
         rows.append(dict(section="cost", config=q, seconds=f"{solve:.2f}", ratio=f"{t_vol / t_none:.2f}",
