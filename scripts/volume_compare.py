@@ -69,15 +69,17 @@ def ratio(a: np.ndarray, b: np.ndarray) -> str:
     return "/".join(f"{x:.3f}" for x in r)
 
 
-def scene_without_settings(path: pathlib.Path, tmp: str) -> hs.Scene:
+def scene_without_settings(path: pathlib.Path, tmp: str, material: dict | None = None) -> hs.Scene:
     """The scene of `path` with its render section emptied, so that the
-    quality preset alone decides."""
+    quality preset alone decides (and its material's keys in `material`
+    replaced)."""
     d = json.loads(path.read_text())
     d["render"] = {}
     hair = d["hair"]
     if "file" in hair:
         hair["file"] = str((path.parent / hair["file"]).resolve())
-    out = os.path.join(tmp, path.name)
+    hair["material"].update(material or {})
+    out = os.path.join(tmp, ("edited_" if material else "") + path.name)
     with open(out, "w") as f:
         json.dump(d, f)
     return hs.Scene.load(out)
@@ -256,12 +258,10 @@ def cost(tmp: str, rows: list, md: list) -> None:
            "| --- | --- | --- | --- | --- | --- |"]
     for q in ("balanced", "accurate"):
         # a material of its own (roughness changed in the fourth digit), so that its table is built
-        d = json.loads((DENSE / f"{name}.json").read_text())
-        d["render"] = {}
-        d["hair"]["material"]["longitudinal_roughness"] += 1e-4 * (1 if q == "balanced" else 2)
-        if "file" in d["hair"]:
-            d["hair"]["file"] = str((DENSE / d["hair"]["file"]).resolve())
-        _, st_first, _ = timed(hs.Scene.from_dict(d), quality=q, multiple_scattering="volume")
+        beta_m = json.loads((DENSE / f"{name}.json").read_text())["hair"]["material"]["longitudinal_roughness"]
+        edited = scene_without_settings(DENSE / f"{name}.json", tmp, {
+            "longitudinal_roughness": beta_m + 1e-4 * (1 if q == "balanced" else 2)})
+        _, st_first, _ = timed(edited, quality=q, multiple_scattering="volume")
         first = st_first["volume_ms"] / 1000
         # solves of their own (photons changed by a few, so that no earlier solve is reused), best of 2
         solve = np.inf

@@ -565,25 +565,36 @@ fn response_table(hair: &HairShading) -> Arc<response::ResponseTable> {
     static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
     let tables = TABLES.get_or_init(|| std::sync::Mutex::new(Vec::new()));
     let k = material_key(hair);
-    {
-        let mut c = tables.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(i) = c.iter().position(|e| e.0 == k) {
-            let e = c.remove(i);
-            let t = e.1.clone();
-            c.push(e);
-            return t;
-        }
+    if let Some(t) = kept(tables, &k) {
+        return t;
     }
     // built outside the lock: the build runs on the pool
     let t = Arc::new(response::ResponseTable::new(
         crate::raster::shade::far_response(hair),
     ));
-    let mut c = tables.lock().unwrap_or_else(|e| e.into_inner());
-    c.push((k, t.clone()));
-    while c.len() > CACHE_TABLES {
+    keep(tables, k, t.clone(), CACHE_TABLES);
+    t
+}
+
+/// The value kept under `key` in a least-recently-used list (the last
+/// entry the most recent), now marked the most recent.
+fn kept<K: PartialEq, V>(list: &std::sync::Mutex<Vec<(K, Arc<V>)>>, key: &K) -> Option<Arc<V>> {
+    let mut c = list.lock().unwrap_or_else(|e| e.into_inner());
+    let i = c.iter().position(|e| e.0 == *key)?;
+    let e = c.remove(i);
+    let v = e.1.clone();
+    c.push(e);
+    Some(v)
+}
+
+/// Keeps `value` under `key` as the most recent of a least-recently-used
+/// list of at most `max` entries.
+fn keep<K, V>(list: &std::sync::Mutex<Vec<(K, Arc<V>)>>, key: K, value: Arc<V>, max: usize) {
+    let mut c = list.lock().unwrap_or_else(|e| e.into_inner());
+    c.push((key, value));
+    while c.len() > max {
         c.remove(0);
     }
-    t
 }
 
 type Entry = (u64, Arc<VolumeRadiance>);
@@ -606,17 +617,11 @@ pub fn cached(
     progress: Option<&AtomicUsize>,
 ) -> Option<(Arc<VolumeRadiance>, bool)> {
     let k = key(input.scene, input.geometry, input.env, &settings);
-    {
-        let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(i) = c.iter().position(|e| e.0 == k) {
-            let e = c.remove(i);
-            let r = e.1.clone();
-            c.push(e);
-            if let Some(p) = progress {
-                p.fetch_add(PROGRESS_STEPS, Ordering::Relaxed);
-            }
-            return Some((r, true));
+    if let Some(r) = kept(cache(), &k) {
+        if let Some(p) = progress {
+            p.fetch_add(PROGRESS_STEPS, Ordering::Relaxed);
         }
+        return Some((r, true));
     }
     // a solve that traces nothing (no light, no photons) counts its steps at once
     let before = progress.map(|p| p.load(Ordering::Relaxed));
@@ -626,11 +631,7 @@ pub fn cached(
         p.fetch_add(PROGRESS_STEPS.saturating_sub(counted), Ordering::Relaxed);
     }
     let solved = Arc::new(solved?);
-    let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
-    c.push((k, solved.clone()));
-    while c.len() > CACHE_SOLVES {
-        c.remove(0);
-    }
+    keep(cache(), k, solved.clone(), CACHE_SOLVES);
     Some((solved, false))
 }
 
