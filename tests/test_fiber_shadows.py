@@ -111,3 +111,37 @@ def test_01_partial_shadow_across_a_fiber():
                    [0.0, 0.8, -1.0])
     got, want = _render_mean(scene), exact_mean(scene, fibers)
     assert np.all(np.abs(got / want - 1) < 0.02), (got / want, got, want)
+
+
+def test_02_own_strand_shadows_unless_it_passes():
+    """A hairpin: a strand along x that turns back three radii behind
+    itself, between its front arm and a light from behind. By default its
+    back arm shadows its front arm exactly as a separate strand there does;
+    with ``own_strand: "passes"`` (Cycles' rule: a ray never hits the curve
+    it leaves) the front arm is lit as if the back arm were not there, and
+    a separate strand still shadows it. Compared over the middle half of
+    the image's columns, away from the turn."""
+    back = [(1.0, 0.0, -3 * R), (-1.0, 0.0, -3 * R)]
+    front = [(-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)]
+    camera = {"position": [0, 0.0, 1.2], "target": [0, 0.0, 0], "fov": 8, "resolution": [W, H]}
+
+    def scene(strands):
+        return hs.Scene.from_dict({
+            "hairshade_scene": 1, "camera": camera,
+            "lights": [{"type": "directional", "direction": [0.0, 0.1, -1.0], "intensity": [3, 3, 3]}],
+            "hair": {"strands": [{"points": [list(p) for p in s], "radius": R} for s in strands],
+                     "material": BLOND}, "render": {}})
+
+    def middle(sc, own_strand):
+        img = hs.render(sc, quality="accurate", multiple_scattering="none",
+                        shadows={"traced": {"own_strand": own_strand}})
+        return img[:, W // 4: 3 * W // 4].astype(np.float64)
+
+    hairpin, separate, alone = scene([front + back]), scene([front, back]), scene([front])
+    lit = middle(alone, "shadows")
+    shadowed = middle(separate, "shadows")
+    assert shadowed.sum() < 0.8 * lit.sum()  # the back arm blocks most of the light through the front one
+    np.testing.assert_array_equal(middle(separate, "passes"), shadowed)
+    # the same rays meet the same capsules: only which strand they belong to differs
+    np.testing.assert_allclose(middle(hairpin, "shadows"), shadowed, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(middle(hairpin, "passes"), lit, rtol=1e-6, atol=1e-9)

@@ -147,6 +147,14 @@ class MapShadows(TypedDict, total=False):
     pcf_radius: Annotated[int, Native("pcf_radius"), Doc("PCF kernel radius in texels (0: one tap)")]
 
 
+class TracedShadows(MapShadows, total=False):
+    own_strand: Annotated[Literal["shadows", "passes"], Native("traced_own_strand"), Doc(
+        "shadows (the default): a shadow ray leaves its own fiber's tube and is then blocked by its own strand as by any "
+        "other (a curl, a strand crossing the crown before it); passes: a strand never shadows itself, as in "
+        "Cycles, which skips every hit on the curve a ray leaves (for comparing with Cycles; "
+        "docs/separated.md)")]
+
+
 class DualOptions(TypedDict, total=False):
     forward_density: Annotated[float, Native("dual_forward_density"), Doc("Zinke's d_f")]
     back_density: Annotated[float, Native("dual_back_density"), Doc("Zinke's d_b")]
@@ -199,7 +207,7 @@ class _Density(TypedDict):
 
 
 class _Traced(TypedDict):
-    traced: MapShadows
+    traced: TracedShadows
 
 
 class _NoMS(TypedDict):
@@ -267,7 +275,7 @@ class RenderSettings(TypedDict, total=False):
 GROUPS: Dict[str, Tuple[str, Dict[str, type]]] = {
     "transparency": ("transparency", {"mlab": MlabOptions, "sorted": SortedOptions, "coverage": CoverageOptions}),
     "shadows": ("shadow_model", {"exponential": ExponentialShadows, "opacity": MapShadows,
-                                 "density": MapShadows, "traced": MapShadows}),
+                                 "density": MapShadows, "traced": TracedShadows}),
     "multiple_scattering": ("multiple_scattering", {"none": NoOptions, "karis": NoOptions, "dual": DualOptions,
                                                    "volume": VolumeOptions}),
 }

@@ -408,6 +408,11 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         },
         sphere_bounce: r.flag("sphere_bounce", def.sphere_bounce)?,
         near_field: r.flag("near_field", def.near_field)?,
+        traced_own_strand_passes: r.choice(
+            "traced_own_strand",
+            "shadows",
+            &["shadows", "passes"],
+        )? == "passes",
         environment_directions: r
             .int("environment_directions", def.environment_directions as i64)?
             as usize,
@@ -507,6 +512,14 @@ fn options_dict<'py>(
     )?;
     d.set_item("sphere_bounce", o.sphere_bounce)?;
     d.set_item("near_field", o.near_field)?;
+    d.set_item(
+        "traced_own_strand",
+        if o.traced_own_strand_passes {
+            "passes"
+        } else {
+            "shadows"
+        },
+    )?;
     d.set_item("environment_directions", o.environment_directions)?;
     d.set_item("hair_cull_transmittance", o.hair_cull_transmittance as f64)?;
     d.set_item(

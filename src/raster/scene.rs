@@ -276,6 +276,10 @@ pub struct RenderOptions {
     /// by the near field at each sample's offset across its fiber
     /// ([`super::shade`]'s `near`).
     pub near_field: bool,
+    /// Traced shadows: whether a ray passes its whole own strand (as
+    /// Cycles, which skips every hit on the curve a ray leaves) instead of
+    /// only its own fiber's tube ([`super::traced::SegmentGrid::occluded`]).
+    pub traced_own_strand_passes: bool,
     /// Quadrature directions of the environment light for far-field models
     /// ([`super::env_light`]).
     pub environment_directions: usize,
@@ -335,6 +339,7 @@ impl Default for RenderOptions {
             volume_transport: VolumeTransport::Medium,
             sphere_bounce: true,
             near_field: true,
+            traced_own_strand_passes: false,
             environment_directions: super::env_light::DIRECTIONS,
             lod: super::lod::Lod::default(),
             hair_cull_transmittance: 1e-3,

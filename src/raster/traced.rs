@@ -23,6 +23,9 @@ pub struct SegmentGrid {
     /// crosses such a block in one step).
     empty_block: Vec<bool>,
     block_dims: [usize; 3],
+    /// A ray passes its whole own strand, not only its own fiber's tube
+    /// (`render.shadows.traced.own_strand` "passes": Cycles' rule).
+    pub own_strand_passes: bool,
 }
 
 /// The most (cell, segment) entries the grid's cell boxes may hold in all
@@ -233,6 +236,7 @@ impl SegmentGrid {
             capsule_of,
             empty_block,
             block_dims,
+            own_strand_passes: false,
         })
     }
 
@@ -335,7 +339,11 @@ impl SegmentGrid {
     ) -> Passes {
         let mut p = Passes {
             strand: fiber.strand,
-            t_own: self.own_tube_exit(o, d, fiber),
+            t_own: if self.own_strand_passes {
+                f32::INFINITY
+            } else {
+                self.own_tube_exit(o, d, fiber)
+            },
             inside: [(u32::MAX, 0.0f32); 8],
             n_inside: 0,
         };
