@@ -6,6 +6,7 @@ from __future__ import annotations
 import pickle
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -19,7 +20,7 @@ def lobes() -> float:
     m = hs.ChiangHair(int_ior=1.55, ext_ior=1.0, i0="mitsuba")
     wi = np.array([[0.0, 0.3, 1.0]], dtype=np.float32)
     wo = [[0.2, -0.3, 0.9]]  # any array-like
-    f: npt.NDArray[np.floating] = c.eval(wi, wo)
+    f: npt.NDArray[np.floating[Any]] = c.eval(wi, wo)  # numpy 1.x needs the argument
     pdf = c.pdf(wi, wo)
     wo_s, weight, p = c.sample(wi, np.random.rand(1), np.random.rand(1, 2))
     far = c.eval_far(wi, wo, fast=True)
