@@ -197,3 +197,27 @@ def test_10_progress_counts_the_solve():
     calls.clear()
     _native.render(_native_scene(none, dict(none.camera)), none.options(), lambda d, t: calls.append((d, t)))
     assert calls[-1][1] == total - 100
+
+
+@pytest.mark.parametrize("transport", ["medium", "strands"])
+def test_11_cycles_shadow_rule_leaves_the_solve_alone(transport):
+    """Traced shadows' ``own_strand: "passes"`` (Cycles' rule) changes the
+    single scattering only: the volume's part (the render minus the same
+    render without it) is the same under both rules, with the photons in
+    the medium and between the strands. Float sums in another order: 1e-6."""
+    d = _small()
+    d["render"] = {"quality": "accurate", "multiple_scattering": {"volume": {
+        "photons": 65536, "resolution": 24, "transport": transport}}}
+    sc = hs.Scene.from_dict(d)
+    part = {}
+    for own in ("passes", "shadows"):
+        # two other lightings first, so that this one is solved afresh (the
+        # renderer keeps the last two solves)
+        for k in (2, 3):
+            other = json.loads(json.dumps(d))
+            other["lights"][0]["intensity"] = [k, k, k]
+            hs.render(hs.Scene.from_dict(other))
+        shadows = {"traced": {"own_strand": own}}
+        part[own] = hs.render(sc, shadows=shadows) - hs.render(sc, shadows=shadows, multiple_scattering="none")
+    assert part["shadows"].mean() > 0
+    np.testing.assert_allclose(part["passes"], part["shadows"], atol=1e-6)

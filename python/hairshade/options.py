@@ -149,10 +149,10 @@ class MapShadows(TypedDict, total=False):
 
 class TracedShadows(MapShadows, total=False):
     own_strand: Annotated[Literal["shadows", "passes"], Native("traced_own_strand"), Doc(
-        "shadows (the default): a shadow ray leaves its own fiber's tube and is then blocked by its own strand as by any "
-        "other (a curl, a strand crossing the crown before it); passes: a strand never shadows itself, as in "
-        "Cycles, which skips every hit on the curve a ray leaves (for comparing with Cycles; "
-        "docs/separated.md)")]
+        "shadows (the default): a shadow ray leaves its own fiber's tube and is then blocked by its own "
+        "strand as by any other (a curl, a strand crossing the crown before it); passes: a strand never "
+        "shadows itself, as in Cycles, which skips every hit on the curve a ray leaves (for comparing with "
+        "Cycles; docs/separated.md; the volume's multiple scattering keeps the default)")]
 
 
 class DualOptions(TypedDict, total=False):

@@ -134,11 +134,13 @@ impl VolumeRadiance {
         let (scene, env) = (input.scene, input.env);
         let t0 = std::time::Instant::now();
         let mut medium = Medium::new(scene, settings.resolution * medium::FINE)?;
-        // the medium's transmittance calibrated against the strands'
+        // the medium's transmittance calibrated against the strands' (a
+        // grid of traced shadows that lets a strand pass itself, Cycles'
+        // rule for shadows, is not the strands' transport: build one)
         let built;
         let grid = match input.traced {
-            Some(g) => Some(g),
-            None => {
+            Some(g) if !g.own_strand_passes => Some(g),
+            _ => {
                 built = crate::raster::traced::SegmentGrid::new(input.segments);
                 built.as_ref()
             }
