@@ -380,9 +380,10 @@ def write_page(out: str, rows: list[dict], heads: list[dict], cpu: str) -> None:
     cut_csv = os.path.join(out, "separated_cut.csv")
     cut = list(csv.DictReader(open(cut_csv))) if os.path.exists(cut_csv) and os.path.exists(lights_csv) else []
     if cut:
+        tilt = {h: json.load(open(os.path.join(SEPARATED, f"{h}.json")))["hair"]["material"]["scale_tilt"]
+                for h in HEADS}
         whole = {(r["head"], r["light"]): r["cycles"] for r in csv.DictReader(open(lights_csv))
-                 if float(r["tilt"]) == json.load(open(os.path.join(SEPARATED, f"{r['head']}.json")))[
-                     "hair"]["material"]["scale_tilt"]}
+                 if float(r["tilt"]) == tilt[r["head"]]}
         ch = lambda r: [float(x) for x in r.split("/")]  # noqa: E731
         lines += [
             "",

@@ -9,7 +9,7 @@
 //!   UE's reference, Karis / UE's real-time model), generic over
 //!   `f32` / `f64`, in Mitsuba's hair frame, with their vector kernels;
 //! - [`threads`] and [`batch`]: the thread pool, and parallel evaluation
-//!   over flat `(N, 3)` arrays;
+//!   over flat `(N, 3)` arrays; [`lru`]: what is kept between calls;
 //! - [`raster`] and [`image_io`]: the software rasterizer, images in and out.
 //!
 //! The Python extension (`hairshade._native`, cargo feature `python`) is a
@@ -20,6 +20,7 @@ pub mod batch;
 pub mod fiber;
 pub mod image_io;
 pub mod lighting;
+pub mod lru;
 pub mod math;
 pub mod raster;
 pub mod simd;

@@ -118,14 +118,8 @@ impl DualTable {
     pub fn for_karis_cached(model: &KarisHair<f32>, d_b: f32) -> std::sync::Arc<Self> {
         let key = format!("{model:?} d_b={}", d_b.to_bits());
         let lock = || KARIS_TABLES.lock().unwrap_or_else(|e| e.into_inner());
-        {
-            let mut held = lock();
-            if let Some(i) = held.iter().position(|(k, _)| *k == key) {
-                let entry = held.remove(i);
-                let table = entry.1.clone();
-                held.push(entry);
-                return table;
-            }
+        if let Some(table) = crate::lru::kept(&KARIS_TABLES, &key) {
+            return table;
         }
         // baked without the lock: the bake runs on the thread pool, which
         // another caller waiting on the lock may belong to

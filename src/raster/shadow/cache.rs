@@ -126,14 +126,8 @@ impl ShadowMap {
         h.word(opts.pcf_radius as u64);
         h.word(opts.shadow_model as u64);
         let key = h.finish();
-        {
-            let mut c = cache().lock().unwrap_or_else(|e| e.into_inner());
-            if let Some(i) = c.iter().position(|(k, _)| *k == key) {
-                let e = c.remove(i);
-                let map = e.1.clone();
-                c.push(e);
-                return (Some(map), true);
-            }
+        if let Some(map) = crate::lru::kept(cache(), &key) {
+            return (Some(map), true);
         }
         let Some(m) = Self::build(light, scene, segments, bounds, opts, cancel) else {
             return (None, false);

@@ -23,6 +23,10 @@ use glam::Vec3;
 /// Tangents kept per voxel.
 pub const TANGENTS: usize = 6;
 
+/// Where a slot's `moments` hold the weight of its tallied light: after
+/// the seven moments, which the scalings of the cross-section touch alone.
+const WEIGHT: usize = 7;
+
 /// The medium on a voxel grid; only voxels holding hair carry data.
 pub struct Medium {
     pub origin: Vec3,
@@ -175,7 +179,7 @@ impl Medium {
         }
         let inv_v = 1.0 / (voxel * voxel * voxel);
         for v in &mut m.moments {
-            for x in v[..7].iter_mut() {
+            for x in v[..WEIGHT].iter_mut() {
                 *x *= inv_v;
             }
         }
@@ -185,7 +189,7 @@ impl Medium {
             .map(|&v| m.free_fraction(scene, v as usize))
             .collect();
         for (mo, &f) in m.moments.iter_mut().zip(&free) {
-            for x in mo[..7].iter_mut() {
+            for x in mo[..WEIGHT].iter_mut() {
                 *x /= f;
             }
         }
@@ -209,7 +213,7 @@ impl Medium {
         let mean_s = self.moments.iter().map(|m| m[0] as f64).sum::<f64>()
             / self.moments.len().max(1) as f64;
         for m in &mut self.moments {
-            m[7] = (m[0] as f64 / mean_s) as f32;
+            m[WEIGHT] = (m[0] as f64 / mean_s) as f32;
         }
         let c = &mut self.cells;
         let cd = c.dims;
@@ -219,7 +223,7 @@ impl Medium {
         let d = self.dims;
         let per_cell = 1.0 / (FINE * FINE * FINE) as f32;
         for ((&v, &f), m) in self.voxel_of.iter().zip(free).zip(&self.moments) {
-            let w = m[7];
+            let w = m[WEIGHT];
             let v = v as usize;
             let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
             let n = ((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE;
@@ -327,7 +331,7 @@ impl Medium {
     /// calibration scales the cross-section).
     #[inline]
     pub fn weight(&self, s: usize) -> f32 {
-        self.moments[s][7]
+        self.moments[s][WEIGHT]
     }
 
     /// Fibers crossed per unit length along unit `d` in slot `s`.
@@ -364,7 +368,7 @@ impl Medium {
     /// Scales the fiber cross-section everywhere by `k` (calibration).
     pub fn scale(&mut self, k: f32) {
         for m in &mut self.moments {
-            for x in m[..7].iter_mut() {
+            for x in m[..WEIGHT].iter_mut() {
                 *x *= k;
             }
         }

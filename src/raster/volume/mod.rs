@@ -36,6 +36,7 @@ pub mod medium;
 pub mod response;
 pub mod trace;
 
+use crate::lru::{keep, kept};
 use crate::raster::env_light::EnvLights;
 use crate::raster::scene::{HairShading, Light, RenderOptions, Scene, VolumeTransport};
 use crate::threads::pool;
@@ -576,27 +577,6 @@ fn response_table(hair: &HairShading) -> Arc<response::ResponseTable> {
     ));
     keep(tables, k, t.clone(), CACHE_TABLES);
     t
-}
-
-/// The value kept under `key` in a least-recently-used list (the last
-/// entry the most recent), now marked the most recent.
-fn kept<K: PartialEq, V>(list: &std::sync::Mutex<Vec<(K, Arc<V>)>>, key: &K) -> Option<Arc<V>> {
-    let mut c = list.lock().unwrap_or_else(|e| e.into_inner());
-    let i = c.iter().position(|e| e.0 == *key)?;
-    let e = c.remove(i);
-    let v = e.1.clone();
-    c.push(e);
-    Some(v)
-}
-
-/// Keeps `value` under `key` as the most recent of a least-recently-used
-/// list of at most `max` entries.
-fn keep<K, V>(list: &std::sync::Mutex<Vec<(K, Arc<V>)>>, key: K, value: Arc<V>, max: usize) {
-    let mut c = list.lock().unwrap_or_else(|e| e.into_inner());
-    c.push((key, value));
-    while c.len() > max {
-        c.remove(0);
-    }
 }
 
 type Entry = (u64, Arc<VolumeRadiance>);
