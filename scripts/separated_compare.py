@@ -6,6 +6,7 @@ against both. Writes docs/separated.md and docs/separated.csv.
     python scripts/separated_compare.py --lights    # renders separated_lights.csv alone (needs bpy and mitsuba)
     python scripts/separated_compare.py --cut       # renders separated_cut.csv alone (needs bpy and mitsuba)
     python scripts/separated_compare.py --page      # writes separated.md again from the CSV files
+    python scripts/separated_compare.py --raster    # the rasterizer's columns of those two CSV files again
 
 Per head: the relaxation (strands kept, overlap before and after); Cycles /
 Mitsuba per channel, their relMSE and each one's noise (its halves' relMSE);
@@ -110,6 +111,63 @@ def frame(scene: hs.Scene, settings: dict) -> tuple[np.ndarray, float, float]:
     return img, best, first
 
 
+def light_label(i: int, light: dict) -> str:
+    """How the CSV files name a head's light."""
+    return f"light {i} ({light['type']} {light.get('direction', '')})"
+
+
+def raster_direct(path: str, **settings) -> np.ndarray:
+    """The rasterizer's direct light on the scene of PATH (`accurate`
+    without multiple scattering), its mean per channel."""
+    from hairshade.demo import preset_scene
+
+    return mean(hs.render(preset_scene(path), quality="accurate", multiple_scattering="none", progress=False,
+                          **settings))
+
+
+def raster_rule_ratio(path: str) -> np.ndarray:
+    """The rasterizer's direct light with Cycles' rule (traced shadows'
+    ``own_strand`` "passes") over its own ("shadows")."""
+    own = {o: raster_direct(path, shadows={"traced": {"own_strand": o}}) for o in ("shadows", "passes")}
+    return own["passes"] / own["shadows"]
+
+
+def rerender_raster(out: str) -> None:
+    """The rasterizer's columns of separated_lights.csv and separated_cut.csv
+    again, the path tracers' kept (after a change of the renderer). A
+    light's raster / Mitsuba divides by the Mitsuba mean its row holds
+    (mitsuba_e3: four digits, 2e-4 of the value at worst)."""
+    import shutil
+    import tempfile
+
+    lights_csv, cut_csv = os.path.join(out, "separated_lights.csv"), os.path.join(out, "separated_cut.csv")
+    lights, cut = list(csv.DictReader(open(lights_csv))), list(csv.DictReader(open(cut_csv)))
+    for name in HEADS:
+        for label, tilt, path in light_scenes(name):
+            r = raster_direct(path)
+            os.remove(path)
+            for row in lights:
+                if (row["head"], row["light"], float(row["tilt"])) == (name, label, tilt):
+                    m = np.array([float(x) for x in row["mitsuba_e3"].split("/")]) / 1e3
+                    row["raster"] = fmt(r / m)
+                    print(row, flush=True)
+        spec = json.load(open(os.path.join(SEPARATED, f"{name}.json")))
+        with tempfile.TemporaryDirectory() as tmp:
+            shutil.copy(os.path.join(SEPARATED, spec["hair"]["file"]), os.path.join(tmp, "whole.hair"))
+            for i, light in enumerate(spec["lights"]):
+                for row in cut:
+                    if (row["head"], row["light"]) == (name, light_label(i, light)):
+                        s = json.loads(json.dumps(spec))
+                        s["lights"], s["hair"]["file"] = [light], "whole.hair"
+                        path = os.path.join(tmp, "whole.json")
+                        with open(path, "w") as f:
+                            json.dump(s, f)
+                        row["raster_passes"] = fmt(raster_rule_ratio(path))
+                        print(row, flush=True)
+    write_csv(lights_csv, lights)
+    write_csv(cut_csv, cut)
+
+
 def light_scenes(name: str) -> list[tuple[str, float, str]]:
     """(label, tilt, scene file) for each of NAME's lights alone, at its own
     tilt, and the wavy head's rim light at +2, 0 and -2 degrees."""
@@ -127,7 +185,7 @@ def light_scenes(name: str) -> list[tuple[str, float, str]]:
         f = tempfile.NamedTemporaryFile("w", suffix=".json", dir=SEPARATED, delete=False)  # beside its strands
         json.dump(s, f)
         f.close()
-        out.append((f"light {i} ({spec['lights'][i]['type']} {spec['lights'][i].get('direction', '')})", tilt, f.name))
+        out.append((light_label(i, spec["lights"][i]), tilt, f.name))
     return out
 
 
@@ -163,7 +221,6 @@ def render_cut(out: str) -> None:
 
     import hairshade.mitsuba as hm
     from hairshade import cycles
-    from hairshade.demo import preset_scene
     from hairshade.hairfile import read_hair, write_hair
 
     rows = []
@@ -187,13 +244,8 @@ def render_cut(out: str) -> None:
                 c = 0.5 * sum(cycles.render(sc, spp=256, max_bounces=0, seed=k) for k in (1, 2))
                 m = 0.5 * sum(hm.render(sc, spp=256, integrator="path", max_depth=2, seed=k, progress=False)
                               for k in (1, 2))
-                raster = {own: mean(hs.render(preset_scene(paths["whole"]), quality="accurate",
-                                              multiple_scattering="none", progress=False,
-                                              shadows={"traced": {"own_strand": own}}))
-                          for own in ("shadows", "passes")}
-                rows.append(dict(head=name, light=f"light {i} ({light['type']} {light.get('direction', '')})",
-                                 cycles_cut=fmt(mean(c) / mean(m)),
-                                 raster_passes=fmt(raster["passes"] / raster["shadows"])))
+                rows.append(dict(head=name, light=light_label(i, light), cycles_cut=fmt(mean(c) / mean(m)),
+                                 raster_passes=fmt(raster_rule_ratio(paths["whole"]))))
                 print(rows[-1], flush=True)
     os.makedirs(out, exist_ok=True)
     write_csv(os.path.join(out, "separated_cut.csv"), rows)
@@ -203,7 +255,6 @@ def render_lights(out: str) -> None:
     """separated_lights.csv: direct light per light, in both path tracers and the rasterizer."""
     import hairshade.mitsuba as hm
     from hairshade import cycles
-    from hairshade.demo import preset_scene
 
     rows = []
     for name in HEADS:
@@ -212,10 +263,10 @@ def render_lights(out: str) -> None:
             c = 0.5 * sum(cycles.render(sc, spp=256, max_bounces=0, seed=s) for s in (1, 2))
             m = 0.5 * sum(hm.render(sc, spp=256, integrator="path", max_depth=2, seed=s, progress=False)
                           for s in (1, 2))
-            r = hs.render(preset_scene(path), quality="accurate", multiple_scattering="none", progress=False)
+            r = raster_direct(path)
             os.remove(path)
             rows.append(dict(head=name, light=label, tilt=tilt, cycles=fmt(mean(c) / mean(m)),
-                             raster=fmt(mean(r) / mean(m)), mitsuba_e3=fmt(mean(m) * 1e3)))
+                             raster=fmt(r / mean(m)), mitsuba_e3=fmt(mean(m) * 1e3)))
             print(rows[-1], flush=True)
     os.makedirs(out, exist_ok=True)
     write_csv(os.path.join(out, "separated_lights.csv"), rows)
@@ -227,6 +278,9 @@ def main() -> None:
     ap.add_argument("--lights", action="store_true", help="render separated_lights.csv and stop (bpy, mitsuba)")
     ap.add_argument("--cut", action="store_true", help="render separated_cut.csv and stop (bpy, mitsuba)")
     ap.add_argument("--page", action="store_true", help="write separated.md again from the CSV files alone")
+    ap.add_argument("--raster", action="store_true",
+                    help="render the rasterizer's columns of separated_lights.csv and separated_cut.csv again, "
+                         "keep the path tracers', and stop")
     args = ap.parse_args()
     if args.page:
         page = open(os.path.join(args.out, "separated.md")).read()
@@ -236,6 +290,9 @@ def main() -> None:
         return
     if args.cut:
         render_cut(args.out)
+        return
+    if args.raster:
+        rerender_raster(args.out)
         return
     if args.lights:
         render_lights(args.out)
@@ -391,7 +448,8 @@ def write_page(out: str, rows: list[dict], heads: list[dict], cpu: str) -> None:
             "",
             f"{SELF_SKIP}. So in Cycles a strand never shadows itself. In Mitsuba every segment is a primitive of "
             "its own and shadows any other; in hairshade a shadow ray passes its own strand only until it leaves "
-            "its own fiber's tube (`raster/traced.rs`, `SegmentGrid::occluded`). Under a light behind the hair, "
+            "the strand's tube, and is blocked where it enters it again (`raster/traced.rs`, "
+            "`SegmentGrid::occluded`). Under a light behind the hair, "
             "much of what a strand lets through to the camera lies in the shadow of the same strand's other "
             "parts (where it crosses the crown, or the wave before it). Two ways to see it (`--cut`), direct "
             "light only, one light at a time at the head's own tilt:",

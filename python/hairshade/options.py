@@ -149,8 +149,9 @@ class MapShadows(TypedDict, total=False):
 
 class TracedShadows(MapShadows, total=False):
     own_strand: Annotated[Literal["shadows", "passes"], Native("traced_own_strand"), Doc(
-        "shadows (the default): a shadow ray leaves its own fiber's tube and is then blocked by its own "
-        "strand as by any other (a curl, a strand crossing the crown before it); passes: a strand never "
+        "shadows (the default): a shadow ray passes its own strand until it leaves the strand's tube, and "
+        "is then blocked by its own strand where it enters it again, as by any other (a bend, a curl, a "
+        "strand crossing the crown before it; the same wherever the strand is cut into segments); passes: a strand never "
         "shadows itself, as in Cycles, which skips every hit on the curve a ray leaves (for comparing with "
         "Cycles; docs/separated.md; the volume's multiple scattering keeps the default)")]
 
