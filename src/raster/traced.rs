@@ -26,6 +26,9 @@ pub struct SegmentGrid {
     /// A ray passes its whole own strand, not only its own fiber's tube
     /// (`render.shadows.traced.own_strand` "passes": Cycles' rule).
     pub own_strand_passes: bool,
+    /// Segments either side of one that may overlap it (1 unless segments
+    /// are shorter than a fiber's diameter; at most [`TUBE_NEAR`]).
+    tube_near: usize,
 }
 
 /// The most (cell, segment) entries the grid's cell boxes may hold in all
@@ -226,6 +229,17 @@ impl SegmentGrid {
                 }
             }
         }
+        // capsules k segments apart overlap only if the k - 1 between them
+        // are shorter than the two radii
+        let shortest = caps
+            .iter()
+            .map(|c| c.u.length() / c.r2.sqrt().max(1e-30))
+            .fold(f32::INFINITY, f32::min);
+        let tube_near = if shortest >= 2.0 {
+            1
+        } else {
+            TUBE_NEAR.min(1 + (2.0 / shortest.max(1e-6)).ceil() as usize)
+        };
         Some(Self {
             origin: lo,
             cell,
@@ -237,6 +251,7 @@ impl SegmentGrid {
             empty_block,
             block_dims,
             own_strand_passes: false,
+            tube_near,
         })
     }
 
@@ -245,6 +260,7 @@ impl SegmentGrid {
     /// capsule of the same strand that holds the point where it is, until it
     /// is in none. The union of a strand's capsules is its tube, so where the
     /// strand is cut into segments does not matter.
+    #[inline(never)]
     fn strand_exit(&self, o: Vec3, d: Vec3, k: usize) -> f32 {
         let strand = self.segments[k].strand;
         let mut t = capsule_exit(o, d, &self.segments[k]);
@@ -253,7 +269,7 @@ impl SegmentGrid {
         for _ in 0..MAX_TUBE_STEPS {
             let p = o + d * t;
             let mut next = (t, cur);
-            for j in cur.saturating_sub(TUBE_NEAR)..=(cur + TUBE_NEAR).min(last) {
+            for j in cur.saturating_sub(self.tube_near)..=(cur + self.tube_near).min(last) {
                 let Some(c) = self.segments.get(self.capsule_of[j] as usize) else {
                     continue;
                 };
@@ -542,8 +558,9 @@ impl SegmentGrid {
     }
 }
 
-/// Segments either side of a capsule that may overlap it (segments down
-/// to two thirds of a fiber's diameter long).
+/// Segments either side of a capsule that a strand's tube is followed
+/// through at most (all that may overlap it down to segments two thirds
+/// of a fiber's diameter long).
 const TUBE_NEAR: usize = 3;
 
 /// Capsules a ray inside its own strand's tube follows at most.
@@ -555,6 +572,19 @@ const MAX_TUBE_STEPS: usize = 1 << 12;
 /// 0 when that lies behind the origin. For an origin inside the capsule or
 /// on its surface.
 fn capsule_exit(o: Vec3, d: Vec3, c: &Capsule) -> f32 {
+    // on the surface or outside it, heading away from the axis (a shadow
+    // ray towards a light in front of the fiber): it leaves at once
+    let w = o - c.a;
+    let uu = c.u.dot(c.u);
+    let s = if uu > 0.0 {
+        (c.u.dot(w) / uu).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let radial = w - c.u * s;
+    if radial.dot(d) >= 0.0 && radial.length_squared() >= c.r2 {
+        return 0.0;
+    }
     let mut t_out = 0.0f32;
     // the finite cylinder: the infinite tube's interval within the slab
     // between the end planes
@@ -605,13 +635,15 @@ fn capsule_exit(o: Vec3, d: Vec3, c: &Capsule) -> f32 {
 #[inline]
 fn contains(o: Vec3, c: &Capsule) -> bool {
     let w = o - c.a;
-    let uu = c.u.dot(c.u);
-    let t0 = if uu > 0.0 {
-        (c.u.dot(w) / uu).clamp(0.0, 1.0)
+    let (t, uu) = (c.u.dot(w), c.u.dot(c.u));
+    if t <= 0.0 || uu <= 0.0 {
+        w.length_squared() <= c.r2
+    } else if t >= uu {
+        (w - c.u).length_squared() <= c.r2
     } else {
-        0.0
-    };
-    (w - c.u * t0).length_squared() <= c.r2
+        // |w|² − (u·w)²/|u|², times |u|²
+        w.length_squared() * uu - t * t <= c.r2 * uu
+    }
 }
 
 /// Whether the segment `a`–`b` meets the box `[lo, hi]` (slab test over
@@ -641,7 +673,7 @@ fn segment_crosses_box(a: Vec3, b: Vec3, lo: Vec3, hi: Vec3) -> bool {
 /// closest approach to the segment is within the radius, and its origin is
 /// outside the capsule): the ray parameter of that closest approach, or
 /// None.
-#[inline]
+#[inline(always)]
 fn capsule_hit(o: Vec3, d: Vec3, t_max: f32, s: &Capsule) -> Option<f32> {
     // Closest points between the ray and the segment (Ericson, 5.1.9).
     let u = s.u;
