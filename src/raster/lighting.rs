@@ -48,14 +48,7 @@ impl Lighting {
         methods: &Methods,
         segments: &[WorldSegment],
     ) -> Self {
-        let traced = methods
-            .traced
-            .then(|| SegmentGrid::new(segments))
-            .flatten()
-            .map(|mut g| {
-                g.own_strand_passes = opts.traced_own_strand_passes;
-                g
-            });
+        let traced = methods.traced.then(|| SegmentGrid::new(segments)).flatten();
         let env_lights = match &scene.environment {
             Some(env) if methods.environment_as_lights => Some(EnvLights::new(
                 scene,
@@ -168,7 +161,6 @@ fn key(scene: &Scene, geometry: u64, opts: &RenderOptions, m: &Methods) -> u64 {
     h.floats(scene.environment.iter().flat_map(|e| e.sh).flatten());
     h.word(opts.density_resolution as u64);
     h.word(opts.environment_directions as u64);
-    h.word(opts.traced_own_strand_passes as u64);
     for flag in [
         m.fiber_counts,
         m.counts_behind,

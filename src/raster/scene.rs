@@ -278,7 +278,9 @@ pub struct RenderOptions {
     pub near_field: bool,
     /// Traced shadows: whether a ray passes its whole own strand (as
     /// Cycles, which skips every hit on the curve a ray leaves) instead of
-    /// only its own fiber's tube ([`super::traced::SegmentGrid::occluded`]).
+    /// only until it leaves the strand's tube
+    /// ([`super::traced::SegmentGrid::occluded_with`]; the volume's
+    /// transport keeps the tube's rule).
     pub traced_own_strand_passes: bool,
     /// Quadrature directions of the environment light for far-field models
     /// ([`super::env_light`]).

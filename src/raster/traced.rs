@@ -23,9 +23,6 @@ pub struct SegmentGrid {
     /// crosses such a block in one step).
     empty_block: Vec<bool>,
     block_dims: [usize; 3],
-    /// A ray passes its whole own strand, not only its own fiber's tube
-    /// (`render.shadows.traced.own_strand` "passes": Cycles' rule).
-    pub own_strand_passes: bool,
     /// Segments either side of one that may overlap it (1 unless segments
     /// are shorter than a fiber's diameter; at most [`TUBE_NEAR`]).
     tube_near: usize,
@@ -250,7 +247,6 @@ impl SegmentGrid {
             capsule_of,
             empty_block,
             block_dims,
-            own_strand_passes: false,
             tube_near,
         })
     }
@@ -324,10 +320,24 @@ impl SegmentGrid {
     /// The rule is the tube's, not the segments': the same strand cut into
     /// more segments casts the same shadows.
     pub fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, fiber: &super::shade::Fiber) -> bool {
+        self.occluded_with(o, d, t_max, fiber, false)
+    }
+
+    /// [`Self::occluded`], or with `own_strand_passes` Cycles' rule: the
+    /// ray passes its whole own strand (`render.shadows.traced.own_strand`
+    /// "passes", for comparing with Cycles).
+    pub fn occluded_with(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        fiber: &super::shade::Fiber,
+        own_strand_passes: bool,
+    ) -> bool {
         let Some(entry) = self.enter(o, d, t_max) else {
             return false;
         };
-        let passes = self.passes(o, d, entry, fiber);
+        let passes = self.passes(o, d, entry, fiber, own_strand_passes);
         self.walk(o, d, t_max, entry, |items, _| {
             items.iter().any(|&i| {
                 let s = &self.segments[i as usize];
@@ -350,7 +360,7 @@ impl SegmentGrid {
         fiber: &super::shade::Fiber,
     ) -> Option<(f32, Vec3, super::shade::Fiber)> {
         let entry = self.enter(o, d, t_max)?;
-        let passes = self.passes(o, d, entry, fiber);
+        let passes = self.passes(o, d, entry, fiber, false);
         let mut best: Option<(f32, u32)> = None;
         self.walk(o, d, t_max, entry, |items, t_cell_exit| {
             for &i in items {
@@ -382,18 +392,19 @@ impl SegmentGrid {
     }
 
     /// What a ray from a point of `fiber` passes (its own strand until it
-    /// leaves the strand's tube; strands whose tube holds the origin, until
-    /// it leaves them).
+    /// leaves the strand's tube, or all of it with `own_strand_passes`;
+    /// strands whose tube holds the origin, until it leaves them).
     fn passes(
         &self,
         o: Vec3,
         d: Vec3,
         (t_enter, c): (f32, [i64; 3]),
         fiber: &super::shade::Fiber,
+        own_strand_passes: bool,
     ) -> Passes {
         let mut p = Passes {
             strand: fiber.strand,
-            t_own: if self.own_strand_passes {
+            t_own: if own_strand_passes {
                 f32::INFINITY
             } else {
                 self.own_strand_exit(o, d, fiber)

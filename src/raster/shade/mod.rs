@@ -109,6 +109,9 @@ pub struct Shader<'a> {
     /// Coverage samples shade the lights' single scattering by the near
     /// field at each sample's offset across its fiber (see [`near`]).
     near: bool,
+    /// Traced shadow rays pass their whole own strand (Cycles' rule,
+    /// `render.shadows.traced.own_strand` "passes").
+    own_strand_passes: bool,
     /// The render's cancel flag: once set, shading returns 0 at once (the
     /// render is discarded), so that a slow model (converged DEonHair,
     /// about 1 ms a fragment) stops within a fragment, not a tile.
@@ -182,6 +185,7 @@ impl<'a> Shader<'a> {
             dual,
             count_shadows: m.count_shadows,
             near: m.near_field,
+            own_strand_passes: opts.traced_own_strand_passes,
             bounce: None,
             volume: None,
             // (vertex shading with guides that give the scattered terms:

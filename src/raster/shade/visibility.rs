@@ -169,7 +169,13 @@ impl Shader<'_> {
             return false;
         };
         let light = &self.scene.lights[li];
-        grid.occluded(o, light.incident(o).0, light.distance(o), fiber)
+        grid.occluded_with(
+            o,
+            light.incident(o).0,
+            light.distance(o),
+            fiber,
+            self.own_strand_passes,
+        )
     }
 
     /// The fraction of light `li` that reaches an opaque surface point `p`

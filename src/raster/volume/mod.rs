@@ -135,13 +135,11 @@ impl VolumeRadiance {
         let (scene, env) = (input.scene, input.env);
         let t0 = std::time::Instant::now();
         let mut medium = Medium::new(scene, settings.resolution * medium::FINE)?;
-        // the medium's transmittance calibrated against the strands' (a
-        // grid of traced shadows that lets a strand pass itself, Cycles'
-        // rule for shadows, is not the strands' transport: build one)
+        // the medium's transmittance calibrated against the strands'
         let built;
         let grid = match input.traced {
-            Some(g) if !g.own_strand_passes => Some(g),
-            _ => {
+            Some(g) => Some(g),
+            None => {
                 built = crate::raster::traced::SegmentGrid::new(input.segments);
                 built.as_ref()
             }
