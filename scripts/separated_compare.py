@@ -117,6 +117,28 @@ def light_label(i: int, light: dict) -> str:
     return f"light {i} ({light['type']} {light.get('direction', '')})"
 
 
+def light_alone(spec: dict, light: dict, path: str, **hair) -> str:
+    """Writes the scene SPEC lit by LIGHT alone to PATH (its hair's keys in
+    HAIR replaced) and returns PATH."""
+    s = json.loads(json.dumps(spec))
+    s["lights"] = [light]
+    s["hair"].update(hair)
+    with open(path, "w") as f:
+        json.dump(s, f)
+    return path
+
+
+def path_traced_direct(sc: hs.Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Cycles' (no bounce) and Mitsuba's (max_depth 2) direct light on SC,
+    each the mean of two seeds of 256 spp."""
+    import hairshade.mitsuba as hm
+    from hairshade import cycles
+
+    c = 0.5 * sum(cycles.render(sc, spp=256, max_bounces=0, seed=k) for k in (1, 2))
+    m = 0.5 * sum(hm.render(sc, spp=256, integrator="path", max_depth=2, seed=k, progress=False) for k in (1, 2))
+    return c, m
+
+
 def raster_direct(path: str, **settings) -> np.ndarray:
     """The rasterizer's direct light on the scene of PATH (`accurate`
     without multiple scattering), its mean per channel."""
@@ -158,11 +180,7 @@ def rerender_raster(out: str) -> None:
             for i, light in enumerate(spec["lights"]):
                 for row in cut:
                     if (row["head"], row["light"]) == (name, light_label(i, light)):
-                        s = json.loads(json.dumps(spec))
-                        s["lights"], s["hair"]["file"] = [light], "whole.hair"
-                        path = os.path.join(tmp, "whole.json")
-                        with open(path, "w") as f:
-                            json.dump(s, f)
+                        path = light_alone(spec, light, os.path.join(tmp, "whole.json"), file="whole.hair")
                         row["raster_passes"] = fmt(raster_rule_ratio(path))
                         print(row, flush=True)
     write_csv(lights_csv, lights)
@@ -220,8 +238,6 @@ def render_cut(out: str) -> None:
     import shutil
     import tempfile
 
-    import hairshade.mitsuba as hm
-    from hairshade import cycles
     from hairshade.hairfile import read_hair, write_hair
 
     rows = []
@@ -234,17 +250,9 @@ def render_cut(out: str) -> None:
             for i, light in enumerate(spec["lights"]):
                 if light["type"] == "environment":
                     continue
-                paths = {}
-                for hair in ("whole", "cut"):
-                    s = json.loads(json.dumps(spec))
-                    s["lights"], s["hair"]["file"] = [light], f"{hair}.hair"
-                    paths[hair] = os.path.join(tmp, f"{hair}.json")
-                    with open(paths[hair], "w") as f:
-                        json.dump(s, f)
-                sc = hs.Scene.load(paths["cut"])
-                c = 0.5 * sum(cycles.render(sc, spp=256, max_bounces=0, seed=k) for k in (1, 2))
-                m = 0.5 * sum(hm.render(sc, spp=256, integrator="path", max_depth=2, seed=k, progress=False)
-                              for k in (1, 2))
+                paths = {hair: light_alone(spec, light, os.path.join(tmp, f"{hair}.json"), file=f"{hair}.hair")
+                         for hair in ("whole", "cut")}
+                c, m = path_traced_direct(hs.Scene.load(paths["cut"]))
                 rows.append(dict(head=name, light=light_label(i, light), cycles_cut=fmt(mean(c) / mean(m)),
                                  raster_passes=fmt(raster_rule_ratio(paths["whole"]))))
                 print(rows[-1], flush=True)
@@ -264,9 +272,6 @@ def render_bspline(out: str) -> None:
     import shutil
     import tempfile
 
-    import hairshade.mitsuba as hm
-    from hairshade import cycles
-
     behind = {(r["head"], r["light"]) for r in csv.DictReader(open(os.path.join(out, "separated_lights.csv")))
               if max(float(x) for x in r["cycles"].split("/")) > 1.03}
     rows = []
@@ -278,15 +283,8 @@ def render_bspline(out: str) -> None:
             with tempfile.TemporaryDirectory() as tmp:
                 shutil.copy(os.path.join(SEPARATED, spec["hair"]["file"]), tmp)
                 for curve in ("bspline", "polyline"):
-                    s = json.loads(json.dumps(spec))
-                    s["lights"], s["hair"]["curve"] = [light], curve
-                    path = os.path.join(tmp, "scene.json")
-                    with open(path, "w") as f:
-                        json.dump(s, f)
-                    sc = hs.Scene.load(path)
-                    c = 0.5 * sum(cycles.render(sc, spp=256, max_bounces=0, seed=k) for k in (1, 2))
-                    m = 0.5 * sum(hm.render(sc, spp=256, integrator="path", max_depth=2, seed=k, progress=False)
-                                  for k in (1, 2))
+                    path = light_alone(spec, light, os.path.join(tmp, "scene.json"), curve=curve)
+                    c, m = path_traced_direct(hs.Scene.load(path))
                     r = raster_direct(path)
                     rows.append(dict(head=name, light=light_label(i, light), curve=curve,
                                      cycles=fmt(mean(c) / mean(m)), raster=fmt(r / mean(m)),
@@ -298,16 +296,10 @@ def render_bspline(out: str) -> None:
 
 def render_lights(out: str) -> None:
     """separated_lights.csv: direct light per light, in both path tracers and the rasterizer."""
-    import hairshade.mitsuba as hm
-    from hairshade import cycles
-
     rows = []
     for name in HEADS:
         for label, tilt, path in light_scenes(name):
-            sc = hs.Scene.load(path)
-            c = 0.5 * sum(cycles.render(sc, spp=256, max_bounces=0, seed=s) for s in (1, 2))
-            m = 0.5 * sum(hm.render(sc, spp=256, integrator="path", max_depth=2, seed=s, progress=False)
-                          for s in (1, 2))
+            c, m = path_traced_direct(hs.Scene.load(path))
             r = raster_direct(path)
             os.remove(path)
             rows.append(dict(head=name, light=label, tilt=tilt, cycles=fmt(mean(c) / mean(m)),
@@ -335,18 +327,11 @@ def main() -> None:
         write_page(args.out, read_rows(os.path.join(args.out, "separated.csv")),
                    read_rows(os.path.join(args.out, "separated_heads.csv")), cpu)
         return
-    if args.cut:
-        render_cut(args.out)
-        return
-    if args.raster:
-        rerender_raster(args.out)
-        return
-    if args.bspline:
-        render_bspline(args.out)
-        return
-    if args.lights:
-        render_lights(args.out)
-        return
+    for flag, run in (("cut", render_cut), ("raster", rerender_raster), ("bspline", render_bspline),
+                      ("lights", render_lights)):
+        if getattr(args, flag):
+            run(args.out)
+            return
     from hairshade.demo import cpu_name, preset_scene
 
     rows, heads = [], []
