@@ -172,7 +172,8 @@ pub fn render_with_progress(
 
     // 0. Strand level of detail.
     stats.lod_fraction = lod::fraction(opts.lod, &scene.strands, &scene.camera);
-    let (reduced, guide_settings) = match lod::reduce(&scene.strands, stats.lod_fraction) {
+    let every = scene;
+    let (reduced, guide_settings, kept) = match lod::reduce(&scene.strands, stats.lod_fraction) {
         Some((strands, kept)) => (
             Some(Scene {
                 camera: scene.camera.clone(),
@@ -186,8 +187,9 @@ pub fn render_with_progress(
             }),
             // given guides, numbered among the strands drawn
             opts.guides.for_subset(&kept),
+            kept,
         ),
-        None => (None, opts.guides.clone()),
+        None => (None, opts.guides.clone(), Vec::new()),
     };
     let scene = reduced.as_ref().unwrap_or(scene);
     stats.strands_drawn = scene.strands.strand_count();
@@ -200,16 +202,37 @@ pub fn render_with_progress(
     // 2. Shadow maps.
     // The key of the caches a frame reads (maps, lighting, volume), once.
     let methods = methods::Methods::new(scene, opts);
+    // Under a level of detail, maps that hold hair are drawn from every
+    // strand (`lod` module docs); the key is every strand's then, with the
+    // fraction (the strands drawn follow from the two).
+    let every_strand = reduced.is_some() && opts.shadow_model.maps_hair();
     let geometry = if opts.reuse_shadow_maps || methods.volume {
-        shadow::geometry_hash(scene)
+        match reduced {
+            Some(_) => {
+                let mut h = shadow::WordHash::default();
+                h.word(shadow::geometry_hash(every));
+                h.word(stats.lod_fraction.to_bits() as u64);
+                h.word(every_strand as u64);
+                h.finish()
+            }
+            None => shadow::geometry_hash(scene),
+        }
     } else {
         0
+    };
+    let (casters, map_bounds) = if every_strand {
+        (
+            lod::Casters::every(&world, &every.strands, &scene.strands, &kept),
+            setup::scene_bounds(every),
+        )
+    } else {
+        (lod::Casters::drawn(&world), bounds)
     };
     let shadows = shadow_maps(
         scene,
         opts,
-        &world,
-        bounds,
+        &casters,
+        map_bounds,
         geometry,
         &mut stats,
         Some(cancel),
@@ -363,7 +386,7 @@ pub fn render_with_progress(
 fn shadow_maps(
     scene: &Scene,
     opts: &RenderOptions,
-    world: &[setup::WorldSegment],
+    casters: &lod::Casters<'_>,
     bounds: setup::Bounds,
     geometry: u64,
     stats: &mut RenderStats,
@@ -379,10 +402,11 @@ fn shadow_maps(
                 if skip {
                     (None, false)
                 } else if opts.reuse_shadow_maps {
-                    ShadowMap::build_cached(l, scene, world, bounds, opts, geometry, cancel)
+                    ShadowMap::build_cached(l, scene, casters, bounds, opts, geometry, cancel)
                 } else {
                     (
-                        ShadowMap::build(l, scene, world, bounds, opts, cancel).map(Arc::new),
+                        ShadowMap::build(l, scene, casters.get(), bounds, opts, cancel)
+                            .map(Arc::new),
                         false,
                     )
                 }

@@ -86,6 +86,14 @@ pub enum ShadowModel {
     Traced,
 }
 
+impl ShadowModel {
+    /// Whether this model's maps hold hair (the others' hold opaque
+    /// geometry alone).
+    pub fn maps_hair(self) -> bool {
+        matches!(self, ShadowModel::Opacity | ShadowModel::Exponential)
+    }
+}
+
 /// The light's view: an origin (the eye of a point light) and basis, and
 /// the projection.
 #[derive(Debug, Clone, Copy)]

@@ -3,7 +3,7 @@
 
 use super::ShadowMap;
 use crate::raster::scene::{Light, RenderOptions, Scene};
-use crate::raster::setup::{Bounds, WorldSegment};
+use crate::raster::setup::Bounds;
 
 /// Shadow maps of recent renders, reused while nothing they depend on
 /// changed (the geometry, the light, the shadow settings): a camera move
@@ -99,7 +99,7 @@ impl ShadowMap {
     pub fn build_cached(
         light: &Light,
         scene: &Scene,
-        segments: &[WorldSegment],
+        casters: &crate::raster::lod::Casters<'_>,
         bounds: Bounds,
         opts: &RenderOptions,
         geometry: u64,
@@ -129,7 +129,7 @@ impl ShadowMap {
         if let Some(map) = crate::lru::kept(cache(), &key) {
             return (Some(map), true);
         }
-        let Some(m) = Self::build(light, scene, segments, bounds, opts, cancel) else {
+        let Some(m) = Self::build(light, scene, casters.get(), bounds, opts, cancel) else {
             return (None, false);
         };
         let m = std::sync::Arc::new(m);
