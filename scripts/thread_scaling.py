@@ -1,5 +1,5 @@
 """Frame time over thread counts: the demo head at 1280x720 with each
-quality preset and with per-fragment shading, at 1, 2, 4, ... threads,
+quality preset, with `lod: "auto"` and with per-fragment shading, at 1, 2, 4, ... threads,
 in one run; and whether the image is the same at every thread count.
 
     python scripts/thread_scaling.py [--threads 1,2,4,8,16] [--out docs] [--repeats 2]
@@ -26,7 +26,8 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCENE = ROOT / "python" / "hairshade" / "examples" / "strand_head.json"
 # (label, render settings): the presets, and balanced with every sample shaded
-CONFIGS = (("fast", {"quality": "fast"}), ("balanced", {"quality": "balanced"}),
+CONFIGS = (("fast", {"quality": "fast"}), ("fast, lod: auto", {"quality": "fast", "lod": "auto"}),
+           ("balanced", {"quality": "balanced"}),
            ("accurate", {"quality": "accurate"}), ("balanced, per-fragment shading", {"quality": "balanced",
                                                                                      "shading": "pixel"}))
 
