@@ -188,6 +188,7 @@ impl<'a> Casters<'a> {
         }
     }
 
+    /// The segments (every strand's made on the first call).
     pub fn get(&self) -> &[WorldSegment] {
         match self.every {
             None => self.drawn,

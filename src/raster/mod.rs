@@ -172,7 +172,8 @@ pub fn render_with_progress(
 
     // 0. Strand level of detail.
     stats.lod_fraction = lod::fraction(opts.lod, &scene.strands, &scene.camera);
-    let every = scene;
+    // the scene with every strand, before the level of detail
+    let whole = scene;
     let (reduced, guide_settings, kept) = match lod::reduce(&scene.strands, stats.lod_fraction) {
         Some((strands, kept)) => (
             Some(Scene {
@@ -210,7 +211,7 @@ pub fn render_with_progress(
         match reduced {
             Some(_) => {
                 let mut h = shadow::WordHash::default();
-                h.word(shadow::geometry_hash(every));
+                h.word(shadow::geometry_hash(whole));
                 h.word(stats.lod_fraction.to_bits() as u64);
                 h.word(every_strand as u64);
                 h.finish()
@@ -222,8 +223,8 @@ pub fn render_with_progress(
     };
     let (casters, map_bounds) = if every_strand {
         (
-            lod::Casters::every(&world, &every.strands, &scene.strands, &kept),
-            setup::scene_bounds(every),
+            lod::Casters::every(&world, &whole.strands, &scene.strands, &kept),
+            setup::scene_bounds(whole),
         )
     } else {
         (lod::Casters::drawn(&world), bounds)
