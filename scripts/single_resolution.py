@@ -68,9 +68,9 @@ def main() -> int:
     rows = []
     for name, path, refdir in heads:
         ref = hs.read_exr(str(refdir / f"{name}_depth2.exr"))[..., :3]
+        sc = vc.scene_without_settings(path, tmp)
         for curve in ("polyline", "bspline"):
             for k in scales:
-                sc = vc.scene_without_settings(path, tmp)
                 sc.curve = (curve, a.pixels * k)
                 t = time.perf_counter()
                 img = down(hs.render(sc, vc.W * k, vc.H * k, quality="accurate", multiple_scattering="none",

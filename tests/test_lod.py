@@ -104,6 +104,34 @@ def test_06_shadow_maps_are_drawn_from_every_strand():
         np.testing.assert_array_equal(img[sphere], full[sphere])
 
 
+
+def test_07_lit_from_either_side_the_hair_keeps_its_brightness():
+    """A slab of 3000 strands, 8 cm deep, seen from the front and lit from
+    behind or from the front: at every fraction the hair's mean radiance is
+    within 10% of every strand's. Measured 0.93-1.04 (the farthest, 0.934,
+    front-lit at 1/8: the strands drawn are a random eighth of those the
+    camera sees first). A drawn strand reads the shadow maps at the radius
+    of the strands it stands for: read at its widened surface, `1/f` radii
+    towards the camera, the backlit slab measured 0.42x at 1/2 and 1.40x
+    at 1/8, the front-lit 1.35x at 1/8."""
+    rng = np.random.default_rng(7)
+    x, z = rng.uniform(-0.3, 0.3, 3000), rng.uniform(-0.04, 0.04, 3000)
+    strands = [{"points": [[a, -0.3, c], [a, 0.0, c + 0.01], [a, 0.3, c]], "radius": 0.0015}
+               for a, c in zip(x.tolist(), z.tolist())]
+    for side in (1.0, -1.0):
+        sc = hs.Scene.from_dict({
+            "hairshade_scene": 1,
+            "camera": {"position": [0.0, 0.0, -3.0], "target": [0.0, 0.0, 0.0], "fov": 14,
+                       "resolution": [160, 90]},
+            "lights": [{"type": "directional", "direction": [0.0, 0.2, side], "intensity": [3, 3, 3]}],
+            "hair": {"strands": strands, "material": {"model": "chiang", "eumelanin": 0.15}},
+            "render": {}})
+        full = hs.render(sc, quality="fast").mean()
+        assert full > 0
+        for f in (0.5, 0.25, 0.125):
+            ratio = hs.render(sc, quality="fast", lod=f).mean() / full
+            assert abs(ratio - 1.0) < 0.1, f"light side {side}, lod {f}: {ratio:.3f}"
+
 def test_05_hair_culling_skips_hidden_hair_and_stays_close_to_the_exact_composite():
     """With hair culling (the default, cutoff 1e-3) fragments are skipped
     (stats), and the MLAB image is closer to the exact sorted composite than

@@ -20,10 +20,11 @@
 //! strand; the 25k-strand demo head at 0.32, 1.8-2.9% and 0.8-1.6%). A
 //! frame loop reuses the maps: they cost once per light (the demo head's
 //! first frame 2.1 s instead of 1.1 s on 2 cores, later frames the same).
-//! Under light from behind at small fractions it overshoots: at 1/8 the
-//! backlit dense heads render about twice as bright as with every strand
-//! drawn (a widened strand's surface sits in front of the strands it
-//! stands for, and its map lookups are made there).
+//! A drawn strand reads the maps (and every lookup made at a fiber's
+//! surface) at the radius of the strands it stands for
+//! (`Shader::with_lod_widen`): at its widened surface, `1/f` radii
+//! towards the camera, backlit heads rendered twice as bright at 1/8 as
+//! with every strand drawn.
 //!
 //! `auto` picks `f` from the strands' width on screen: hair whose strands
 //! are thinner than [`AUTO_WIDTH`] pixels is drawn with fewer, wider
@@ -122,10 +123,19 @@ pub fn kept(count: usize, f: f32) -> Vec<usize> {
     kept
 }
 
+/// The strands a level of detail draws ([`reduce`]).
+pub struct Reduced {
+    /// The kept strands, widened.
+    pub strands: Strands,
+    /// The original index of each ([`kept`]).
+    pub kept: Vec<usize>,
+    /// The factor their radii were widened by (about `1/f`).
+    pub widen: f32,
+}
+
 /// The strands with rank below `f`, widened to keep the total width
-/// (module docs), and the original index of each ([`kept`]); `None` when
-/// every strand is kept.
-pub fn reduce(strands: &Strands, f: f32) -> Option<(Strands, Vec<usize>)> {
+/// (module docs); `None` when every strand is kept.
+pub fn reduce(strands: &Strands, f: f32) -> Option<Reduced> {
     let count = strands.strand_count();
     if f >= 1.0 || count == 0 {
         return None;
@@ -156,47 +166,49 @@ pub fn reduce(strands: &Strands, f: f32) -> Option<(Strands, Vec<usize>)> {
         out.radii.extend(strands.radii[r].iter().map(|x| x * widen));
         out.offsets.push(out.points.len() as u32);
     }
-    Some((out, kept))
+    Some(Reduced {
+        strands: out,
+        kept,
+        widen,
+    })
 }
 
 /// What shadow maps are drawn from: the drawn strands' segments, or under
 /// a level of detail every strand's ([`casters`]), made when a map is
 /// first drawn (a frame that reuses its maps does not make them).
-pub struct Casters<'a> {
-    drawn: &'a [WorldSegment],
-    every: Option<(&'a Strands, &'a Strands, &'a [usize])>,
-    made: OnceLock<Vec<WorldSegment>>,
-}
-
-impl<'a> Casters<'a> {
+pub enum Casters<'a> {
     /// The drawn strands' segments.
-    pub fn drawn(drawn: &'a [WorldSegment]) -> Self {
-        Self {
-            drawn,
-            every: None,
-            made: OnceLock::new(),
-        }
-    }
-
+    Drawn(&'a [WorldSegment]),
     /// Every strand of `all`, where `drawn` are the strands `kept` of it.
-    pub fn every(
-        drawn_segments: &'a [WorldSegment],
+    Every {
         all: &'a Strands,
         drawn: &'a Strands,
         kept: &'a [usize],
-    ) -> Self {
-        Self {
-            drawn: drawn_segments,
-            every: Some((all, drawn, kept)),
+        made: OnceLock<Vec<WorldSegment>>,
+    },
+}
+
+impl<'a> Casters<'a> {
+    /// Every strand of `all`, where `drawn` are the strands `kept` of it.
+    pub fn every(all: &'a Strands, drawn: &'a Strands, kept: &'a [usize]) -> Self {
+        Casters::Every {
+            all,
+            drawn,
+            kept,
             made: OnceLock::new(),
         }
     }
 
     /// The segments (every strand's made on the first call).
     pub fn get(&self) -> &[WorldSegment] {
-        match self.every {
-            None => self.drawn,
-            Some((all, drawn, kept)) => self.made.get_or_init(|| casters(all, drawn, kept)),
+        match self {
+            Casters::Drawn(segments) => segments,
+            Casters::Every {
+                all,
+                drawn,
+                kept,
+                made,
+            } => made.get_or_init(|| casters(all, drawn, kept)),
         }
     }
 }
@@ -260,7 +272,7 @@ mod tests {
         let total: f64 = s.radii.iter().map(|&r| r as f64).sum();
         let mut previous: Option<Vec<Vec3>> = None;
         for f in [0.1f32, 0.25, 0.5, 0.9] {
-            let (r, _) = reduce(&s, f).unwrap();
+            let r = reduce(&s, f).unwrap().strands;
             let share = r.strand_count() as f64 / 20000.0;
             let se = (f as f64 * (1.0 - f as f64) / 20000.0).sqrt();
             assert!((share - f as f64).abs() < 4.0 * se, "f {f}: share {share}");
@@ -289,7 +301,7 @@ mod tests {
     #[test]
     fn t02_tiny_fraction_and_ranks() {
         let s = strands(10);
-        let (r, _) = reduce(&s, 1e-9).unwrap();
+        let r = reduce(&s, 1e-9).unwrap().strands;
         assert_eq!(r.strand_count(), 1);
         assert!((0..100000).map(rank).all(|u| (0.0..1.0).contains(&u)));
     }
@@ -325,7 +337,11 @@ mod tests {
     #[test]
     fn t04_casters_every_strand_numbered_as_drawn() {
         let s = strands(300);
-        let (drawn, kept) = reduce(&s, 0.3).unwrap();
+        let Reduced {
+            strands: drawn,
+            kept,
+            ..
+        } = reduce(&s, 0.3).unwrap();
         let every = casters(&s, &drawn, &kept);
         let all = world_segments(&s);
         let own = world_segments(&drawn);
@@ -352,8 +368,123 @@ mod tests {
             }
         }
         assert_eq!(drawn_met, own.len());
-        let lazy = Casters::every(&own, &s, &drawn, &kept);
+        let lazy = Casters::every(&s, &drawn, &kept);
         assert_eq!(lazy.get().len(), all.len());
-        assert_eq!(Casters::drawn(&own).get().len(), own.len());
+        assert_eq!(Casters::Drawn(&own).get().len(), own.len());
+    }
+
+    /// 5. A kept strand is lit at every fraction as it is with every strand
+    ///    drawn: per-vertex shading of the drawn strands, with opacity maps
+    ///    of every strand ([`casters`]) and lookups at the original radius
+    ///    (`Shader::with_lod_widen`), equals the full scene's at the same
+    ///    vertices to 1e-5 relative (the radius is widened and narrowed
+    ///    again in f32, so a surface point can move by an ulp). The strands
+    ///    shadow each other (asserted): at the widened radius, or with a
+    ///    strand's own deposits taken for another's, the two differ.
+    #[test]
+    fn t05_kept_strands_are_lit_as_with_every_strand() {
+        use crate::fiber::chiang::{ChiangFarTable, TableSize};
+        use crate::raster::lighting::Lighting;
+        use crate::raster::scene::{Cards, HairShading, Light, RenderOptions, Scene};
+        use crate::raster::setup::scene_bounds;
+        use crate::raster::shade::{shade_vertices, Shader};
+        use crate::raster::shadow::{ShadowMap, ShadowModel};
+        use std::sync::Arc;
+
+        // A slab of strands 10 deep, lit from behind (the camera's side is +z)
+        let mut all = Strands {
+            points: Vec::new(),
+            radii: Vec::new(),
+            offsets: vec![0],
+        };
+        for s in 0..400 {
+            let (x, z) = (
+                (s % 40) as f32 * 0.01,
+                (s / 40) as f32 * 0.004 + 0.0013 * (s % 7) as f32,
+            );
+            for k in 0..8 {
+                all.points.push(Vec3::new(x, k as f32 * 0.05, z));
+                all.radii.push(0.002);
+            }
+            all.offsets.push(all.points.len() as u32);
+        }
+        let m: crate::fiber::ChiangHair<f64> =
+            crate::fiber::ChiangParams::default().build().unwrap();
+        let hair = HairShading::ChiangFar(Arc::new(ChiangFarTable::new(
+            &m,
+            TableSize::for_scale(m.logistic_scale()),
+        )));
+        let scene = |strands: Strands| Scene {
+            camera: Camera {
+                position: Vec3::new(0.2, 0.2, 3.0),
+                target: Vec3::new(0.2, 0.2, 0.0),
+                up: Vec3::Y,
+                fov_y: 30.0,
+                width: 64,
+                height: 64,
+            },
+            lights: vec![Light::Directional {
+                direction: Vec3::new(0.1, 0.3, -1.0).normalize(),
+                intensity: Vec3::splat(3.0),
+                shadows: true,
+            }],
+            environment: None,
+            strands,
+            cards: Cards::default(),
+            spheres: Vec::new(),
+            triangles: Vec::new(),
+            hair: hair.clone(),
+        };
+        let whole = scene(all.clone());
+        let opts = RenderOptions {
+            shadow_model: ShadowModel::Opacity,
+            light_cull_threshold: 0.0,
+            ..Default::default()
+        };
+        let bounds = scene_bounds(&whole);
+        let eye = whole.camera.position;
+        let map = |sc: &Scene, casters: &[WorldSegment]| {
+            vec![ShadowMap::build(&sc.lights[0], sc, casters, bounds, &opts, None).map(Arc::new)]
+        };
+        let full_maps = map(&whole, &world_segments(&all));
+        let full = shade_vertices(
+            &whole,
+            &Shader::new(&whole, &full_maps, Arc::new(Lighting::none(1)), None, &opts),
+            eye,
+            None,
+        );
+        let m = full_maps[0].as_ref().unwrap();
+        let shadowed = all
+            .points
+            .iter()
+            .filter(|&&p| m.visibility(p) < 0.5)
+            .count();
+        assert!(
+            shadowed > all.points.len() / 2,
+            "{shadowed} shadowed vertices"
+        );
+        for f in [0.5f32, 0.25, 0.125] {
+            let Reduced {
+                strands,
+                kept,
+                widen,
+            } = reduce(&all, f).unwrap();
+            assert!(widen > 0.5 / f);
+            let drawn = scene(strands);
+            let maps = map(&drawn, &casters(&all, &drawn.strands, &kept));
+            let shader = Shader::new(&drawn, &maps, Arc::new(Lighting::none(1)), None, &opts)
+                .with_lod_widen(widen);
+            let got = shade_vertices(&drawn, &shader, eye, None);
+            for (i, &s) in kept.iter().enumerate() {
+                let (d0, a0) = (drawn.strands.offsets[i] as usize, all.offsets[s] as usize);
+                for k in 0..8 {
+                    let (g, w) = (got[d0 + k], full[a0 + k]);
+                    assert!(
+                        (g - w).abs().max_element() <= 1e-5 * w.max_element() + 1e-9,
+                        "f {f}: strand {s} vertex {k}: {g} vs {w}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -174,24 +174,30 @@ pub fn render_with_progress(
     stats.lod_fraction = lod::fraction(opts.lod, &scene.strands, &scene.camera);
     // the scene with every strand, before the level of detail
     let whole = scene;
-    let (reduced, guide_settings, kept) = match lod::reduce(&scene.strands, stats.lod_fraction) {
-        Some((strands, kept)) => (
-            Some(Scene {
-                camera: scene.camera.clone(),
-                lights: scene.lights.clone(),
-                environment: scene.environment.clone(),
+    let (reduced, guide_settings, kept, widen) =
+        match lod::reduce(&scene.strands, stats.lod_fraction) {
+            Some(lod::Reduced {
                 strands,
-                cards: scene.cards.clone(),
-                spheres: scene.spheres.clone(),
-                triangles: scene.triangles.clone(),
-                hair: scene.hair.clone(),
-            }),
-            // given guides, numbered among the strands drawn
-            opts.guides.for_subset(&kept),
-            kept,
-        ),
-        None => (None, opts.guides.clone(), Vec::new()),
-    };
+                kept,
+                widen,
+            }) => (
+                Some(Scene {
+                    camera: scene.camera.clone(),
+                    lights: scene.lights.clone(),
+                    environment: scene.environment.clone(),
+                    strands,
+                    cards: scene.cards.clone(),
+                    spheres: scene.spheres.clone(),
+                    triangles: scene.triangles.clone(),
+                    hair: scene.hair.clone(),
+                }),
+                // given guides, numbered among the strands drawn
+                opts.guides.for_subset(&kept),
+                kept,
+                widen,
+            ),
+            None => (None, opts.guides.clone(), Vec::new(), 1.0),
+        };
     let scene = reduced.as_ref().unwrap_or(scene);
     stats.strands_drawn = scene.strands.strand_count();
 
@@ -204,30 +210,26 @@ pub fn render_with_progress(
     // The key of the caches a frame reads (maps, lighting, volume), once.
     let methods = methods::Methods::new(scene, opts);
     // Under a level of detail, maps that hold hair are drawn from every
-    // strand (`lod` module docs); the key is every strand's then, with the
-    // fraction (the strands drawn follow from the two).
+    // strand (`lod` module docs), and the key is then every strand's with
+    // the fraction (the strands drawn follow from the two).
     let every_strand = reduced.is_some() && opts.shadow_model.maps_hair();
-    let geometry = if opts.reuse_shadow_maps || methods.volume {
-        match reduced {
-            Some(_) => {
-                let mut h = shadow::WordHash::default();
-                h.word(shadow::geometry_hash(whole));
-                h.word(stats.lod_fraction.to_bits() as u64);
-                h.word(every_strand as u64);
-                h.finish()
-            }
-            None => shadow::geometry_hash(scene),
-        }
-    } else {
+    let geometry = if !(opts.reuse_shadow_maps || methods.volume) {
         0
+    } else if every_strand {
+        let mut h = shadow::WordHash::default();
+        h.word(shadow::geometry_hash(whole));
+        h.word(stats.lod_fraction.to_bits() as u64);
+        h.finish()
+    } else {
+        shadow::geometry_hash(scene)
     };
     let (casters, map_bounds) = if every_strand {
         (
-            lod::Casters::every(&world, &whole.strands, &scene.strands, &kept),
+            lod::Casters::every(&whole.strands, &scene.strands, &kept),
             setup::scene_bounds(whole),
         )
     } else {
-        (lod::Casters::drawn(&world), bounds)
+        (lod::Casters::Drawn(&world), bounds)
     };
     let shadows = shadow_maps(
         scene,
@@ -282,6 +284,7 @@ pub fn render_with_progress(
     stats.guide_strands = guide_map.as_ref().map_or(0, |g| g.guides.len());
     stats.guides_ms = ms(tg);
     let shader = Shader::new(scene, &shadows, lit, Some(cancel), opts)
+        .with_lod_widen(widen)
         .with_sphere_bounce(opts)
         .with_vertex_terms(volume, &world, view.eye, guide_map.clone());
     let grid = TileGrid::new(view.width, view.height);

@@ -509,8 +509,11 @@ impl ShadowMap {
                     .take_while(|s| s.strand == strand)
                     .count();
             merged.clear();
-            for (i, seg) in segments[start..end].iter().enumerate() {
-                let index = (start + i) as u32;
+            for seg in &segments[start..end] {
+                // The segment's index among its scene's world segments
+                // (what a receiver's `Fiber::segment` holds; under a level
+                // of detail the casters' own order differs).
+                let index = seg.vertex - seg.strand;
                 self.segment_texels(seg, |texel, z, cov| {
                     let e = merged.entry(texel).or_insert((z, cov, index));
                     if z < e.0 {

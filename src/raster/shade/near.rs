@@ -104,7 +104,7 @@ impl Shader<'_> {
     ) -> u64 {
         let visible = |k: usize| {
             let h = -1.0 + (2 * k + 1) as f32 / VIS_OFFSETS as f32;
-            let o = surface_frame(t, v, h).map_or(p, |(_, n)| p + n * fiber.radius);
+            let o = surface_frame(t, v, h).map_or(p, |(_, n)| p + n * self.lookup_radius(fiber));
             !self.traced_occluded(li, o, fiber)
         };
         // PROBES offsets from edge to edge first; then each interval whose
