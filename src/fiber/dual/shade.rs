@@ -114,7 +114,7 @@ impl DualTable {
         d_f: f32,
         scattered: bool,
     ) -> ([f32; 3], [f32; 3]) {
-        use std::f32::consts::{FRAC_1_PI, FRAC_PI_2};
+        use std::f32::consts::FRAC_1_PI;
         let (view, light, phi) = (g.view, g.light, g.phi);
         let (n, clear) = (path.n, path.clear);
         let t = self.terms(light.0);
@@ -122,15 +122,11 @@ impl DualTable {
             return self.two_stream_parts(far, &t, g, p0, path, d_f, scattered);
         }
         let x = view.0 + light.0;
-        let back_side = if phi.abs() < FRAC_PI_2 { 1.0 } else { 0.0 };
         let d_b = self.d_b;
         let direct = if p0 > 0.0 {
             let single = far.single(view, light, phi);
-            std::array::from_fn(|c| {
-                let back =
-                    t.big_a_b[c] * gauss(x - t.delta_b[c], t.sigma_b2[c]) * back_side * FRAC_1_PI;
-                finite(p0 * (single[c] + d_b * back))
-            })
+            let back = self.local_back(&t, g);
+            std::array::from_fn(|c| finite(p0 * (single[c] + back[c])))
         } else {
             [0.0; 3]
         };
@@ -158,6 +154,23 @@ impl DualTable {
             }
         });
         (direct, scattered)
+    }
+
+    /// The direct part's back scattering per unit of unscattered light
+    /// (local back scattering, Zinke's `d_b A_b(θ) G(θh − Δ_b, σ_b²) / π` on
+    /// the light's side of the fiber), `t` the terms at the light's
+    /// incidence (`self.terms(g.light.0)`). What the direct part adds to the
+    /// single scattering when the way to the light has no `behind`.
+    #[inline]
+    pub fn local_back(&self, t: &DualTerms, g: &FiberAngles) -> [f32; 3] {
+        use std::f32::consts::{FRAC_1_PI, FRAC_PI_2};
+        let x = g.view.0 + g.light.0;
+        let back_side = if g.phi.abs() < FRAC_PI_2 { 1.0 } else { 0.0 };
+        std::array::from_fn(|c| {
+            let back =
+                t.big_a_b[c] * gauss(x - t.delta_b[c], t.sigma_b2[c]) * back_side * FRAC_1_PI;
+            self.d_b * back
+        })
     }
 
     /// [`Self::shade_parts`] with the two-stream back scattering: the

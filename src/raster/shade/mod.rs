@@ -77,6 +77,9 @@ struct Batch {
     l: Vec<f32>,
     shadow: Vec<f32>,
     irradiance: Vec<Vec3>,
+    /// Dual scattering's local back scattering per unit of unscattered
+    /// light ([`DualTable::local_back`]), added to the kernel's far field.
+    back: Vec<[f32; 3]>,
 }
 
 /// Everything hair shading needs, prepared once per render.
@@ -278,12 +281,15 @@ impl<'a> Shader<'a> {
     }
 
     /// Whether [`Self::shade_batch`] and [`Self::shade_serial`] serve this
-    /// model: KarisHair and ChiangHair's tabulated far field (without dual
-    /// scattering) on their vector kernels.
+    /// model: KarisHair and ChiangHair's tabulated far field on their
+    /// vector kernels, without dual scattering or the volume, or with them
+    /// under `split` (the lights' unscattered light is then the far field
+    /// plus dual's local back scattering; the rest is read at the vertices).
     pub fn batches(&self) -> bool {
+        let terms = self.split || (self.dual.is_none() && self.volume.is_none());
         match &self.hair {
-            HairShading::Karis(k) => !k.fast_asin() && self.dual.is_none() && self.volume.is_none(),
-            HairShading::ChiangFar(_) => self.dual.is_none() && self.volume.is_none(),
+            HairShading::Karis(k) => !k.fast_asin() && terms,
+            HairShading::ChiangFar(_) => terms,
             HairShading::DEon(_) => false,
         }
     }
@@ -339,9 +345,16 @@ impl<'a> Shader<'a> {
             l: vec![0.0f32; 3 * n],
             shadow: vec![0.0f32; n],
             irradiance: vec![Vec3::ZERO; n],
+            back: vec![[0.0; 3]; if self.dual.is_some() { n } else { 0 }],
         };
         out.fill(Vec3::ZERO);
         let mut tally = CullTally::default();
+        // (as `shade_impl` asks: under split the lights' unscattered light)
+        let need = if self.split {
+            Need::Unscattered
+        } else {
+            Need::All
+        };
         for source in self.sources(self.split) {
             // per point: direction, irradiance, unscattered fraction (0 where culled)
             for (i, p) in points.iter().enumerate() {
@@ -352,15 +365,25 @@ impl<'a> Shader<'a> {
                     tangents[i],
                     v,
                     fibers[i],
-                    Need::All,
+                    need,
                     true,
                     &mut tally,
                 );
-                let (l, e, vis) = inc.map_or((Vec3::ZERO, Vec3::ZERO, 0.0), |x| {
+                let (l, e, vis) = inc.as_ref().map_or((Vec3::ZERO, Vec3::ZERO, 0.0), |x| {
                     (x.dir, x.irradiance, x.unscattered)
                 });
                 b.l[3 * i..3 * i + 3].copy_from_slice(&l.to_array());
                 (b.irradiance[i], b.shadow[i]) = (e, vis);
+                // dual scattering's direct part: the local back scattering
+                // where the way to the light has no `behind` (two-stream: none)
+                if let (Some((dual, _)), Some(inc)) = (&self.dual, &inc) {
+                    b.back[i] = if vis > 0.0 && inc.path.behind.is_none() {
+                        let g = FiberAngles::new(tangents[i], v, l);
+                        dual.local_back(&dual.terms(g.light.0), &g)
+                    } else {
+                        [0.0; 3]
+                    };
+                }
             }
             self.add_light(&mut b, out);
         }
@@ -429,7 +452,11 @@ impl<'a> Shader<'a> {
             HairShading::DEon(_) => unreachable!("DEonHair has no batch kernel"),
         }
         for (j, &i) in active.iter().enumerate() {
-            out[i] += Vec3::from_slice(&fa[3 * j..]) * b.irradiance[i] * b.shadow[i];
+            let mut f = Vec3::from_slice(&fa[3 * j..]);
+            if let Some(back) = b.back.get(i) {
+                f += Vec3::from(*back);
+            }
+            out[i] += f * b.irradiance[i] * b.shadow[i];
         }
     }
 

@@ -105,11 +105,18 @@ mod tests {
             &m, size,
         )));
         for hair in [karis, chiang] {
-            batched_matches_per_point(hair);
+            batched_matches_per_point(hair.clone(), false);
+            batched_matches_per_point(hair, true);
         }
     }
 
-    fn batched_matches_per_point(hair: HairShading) {
+    /// `dual_split`: under dual scattering with split shading (the lights'
+    /// unscattered light in the batch, dual's local back scattering added
+    /// to the kernel's far field; the scattered light and the environment
+    /// read at the vertices), the batch against the per-point path, which
+    /// evaluates the far field in dual's canonical frame
+    /// (`fiber::dual::FarField::single`): the same 1e-4 relative.
+    fn batched_matches_per_point(hair: HairShading, dual_split: bool) {
         let mut points = Vec::new();
         let mut offsets = vec![0u32];
         for s in 0..40 {
@@ -170,6 +177,9 @@ mod tests {
             .collect();
         let opts = RenderOptions {
             light_cull_threshold: 0.0,
+            split_shading: dual_split,
+            multiple_scattering: dual_split
+                .then_some(crate::raster::scene::MultipleScattering::Dual),
             ..Default::default()
         };
         let shader = Shader::new(
@@ -178,7 +188,10 @@ mod tests {
             Arc::new(crate::raster::lighting::Lighting::none(2)),
             None,
             &opts,
-        );
+        )
+        .with_vertex_terms(None, &world, scene.camera.position, None);
+        assert!(shader.batches());
+        assert_eq!(shader.dual.is_some(), dual_split);
         let eye = scene.camera.position;
         let batched = shade_vertices(&scene, &shader, eye, None);
         let st = &scene.strands;
