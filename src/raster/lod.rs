@@ -16,8 +16,9 @@
 //! overlap where the strands they stand for lay side by side, so maps of
 //! the drawn strands alone let more light through (opacity maps at
 //! 1280×720, `auto`: the dense head `auburn_key` at `f` 0.39 17-18%
-//! brighter than with every strand drawn, 5-7% with the maps of every
-//! strand; the 25k-strand demo head at 0.32, 1.8-2.9% and 0.8-1.6%). A
+//! brighter than with every strand drawn; with the maps of every strand
+//! and the lookups below, the six dense heads' means are within 0.5-6.8%
+//! of it and the 25k-strand demo head's within 0.3%, `docs/speed.md`). A
 //! frame loop reuses the maps: they cost once per light (the demo head's
 //! first frame 2.1 s instead of 1.1 s on 2 cores, later frames the same).
 //! A drawn strand reads the maps (and every lookup made at a fiber's
