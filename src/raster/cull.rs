@@ -5,7 +5,9 @@
 //! - frustum culling: segments that reach no tile;
 //! - back-face culling: back faces of closed, outward meshes seen from
 //!   outside;
-//! - opaque culling: hair behind a tile's farthest opaque surface;
+//! - opaque culling: hair segments hidden behind an opaque sphere
+//!   ([`behind_spheres`]), before they are shaded or binned; in each tile,
+//!   hair behind the tile's farthest opaque surface;
 //! - no shadow map for a light that light culling skips everywhere.
 //!
 //! Two are approximate, with a bound: light culling (a bounded
@@ -14,7 +16,7 @@
 //! pixel's hair once that is nearly opaque.
 
 use super::bin::{segment_tiles, TileGrid};
-use super::scene::{Light, OpaqueTri, RenderOptions, Scene};
+use super::scene::{Light, OpaqueTri, RenderOptions, Scene, Sphere};
 use super::setup::{Bounds, Segment};
 use super::view::View;
 use crate::raster::scene::HairShading;
@@ -28,6 +30,60 @@ pub fn frustum(segs: Vec<Segment>, grid: TileGrid) -> Vec<Segment> {
     segs.into_iter()
         .filter(|s| segment_tiles(s, grid).is_some())
         .collect()
+}
+
+/// The segments that no opaque sphere hides, in order, and how many were
+/// dropped. A segment is dropped when every fragment it could make fails
+/// the tiles' depth test against one sphere:
+///
+/// - a point `P` is hidden by a ball `B` when the segment from the eye to
+///   `P` meets `B`; the set of such points is convex (for `P1`, `P2`
+///   hidden at `X1`, `X2`, the chord `X1 X2` lies in `B` and crosses the
+///   segment from the eye to any point between them), so a segment whose
+///   two ends are hidden is hidden wholly;
+/// - a fragment's depth is that of a point `pw` of the segment's centre
+///   line, whose projection is the (clamped) nearest point of the
+///   projected segment to the pixel centre: within `pad` pixels of it
+///   across the segment and along it ([`Segment::pad`]), so within
+///   `2 pad + 2` (a generous bound of `√2 pad` and the pixel's extent);
+///   at every depth up to `pw`'s, that pixel's ray passes within
+///   `m = (2 pad + 2) z_max / focal` of the ray through `pw`. The ends
+///   are tested against the ball shrunk by `m` and by a further `1e-3` of
+///   its radius: the pixel's ray then lies inside the sphere, by at least
+///   that margin (far beyond f32 rounding), before `pw`'s depth, and the
+///   sphere's depth there is less than the fragment's.
+///
+/// Spheres the eye is inside, or that reach in front of the near plane,
+/// hide nothing here.
+pub fn behind_spheres(segs: Vec<Segment>, spheres: &[Sphere], view: &View) -> (Vec<Segment>, u64) {
+    let eye = view.eye;
+    let balls: Vec<&Sphere> = spheres
+        .iter()
+        .filter(|s| (s.center - eye).dot(view.forward) - s.radius > view.near)
+        .filter(|s| (s.center - eye).length() > s.radius)
+        .collect();
+    if balls.is_empty() {
+        return (segs, 0);
+    }
+    // whether the way from the eye to p meets the ball (c, r)
+    let hidden = |p: Vec3, c: Vec3, r: f32| {
+        let d = p - eye;
+        let t = ((c - eye).dot(d) / d.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+        (eye + d * t - c).length_squared() < r * r
+    };
+    let before = segs.len();
+    let kept: Vec<Segment> = segs
+        .into_iter()
+        .filter(|s| {
+            let m = (2.0 * s.pad() + 2.0) * s.za.max(s.zb) / view.focal;
+            !balls.iter().any(|b| {
+                let r = b.radius - m - 1e-3 * b.radius;
+                r > 0.0 && hidden(s.pa, b.center, r) && hidden(s.pb, b.center, r)
+            })
+        })
+        .collect();
+    let dropped = (before - kept.len()) as u64;
+    (kept, dropped)
 }
 
 /// Opaque culling in one tile: hair entirely behind the farthest opaque
@@ -306,7 +362,7 @@ pub fn lights_without_visible_effect(
 
 #[cfg(test)]
 mod tests {
-    use super::BehindHair;
+    use super::{behind_spheres, BehindHair};
     use crate::raster::oit::{resolve_sorted, Fragment};
     use glam::Vec3;
 
@@ -364,5 +420,101 @@ mod tests {
                 "cutoff {cutoff}: {worst}"
             );
         }
+    }
+
+    /// 2. Segments hidden behind a sphere: every dropped segment's every
+    ///    fragment fails the depth test. Brute force, independent of the
+    ///    bound: 3000 random short segments around and behind a sphere at
+    ///    320×180; for each dropped one, every pixel centre within
+    ///    `pad + 1` pixels of its projected segment (wider than its row
+    ///    spans), at the clamped nearest parameter, has the sphere's
+    ///    depth along the pixel's ray (as the tiles compute it) below the
+    ///    fragment's perspective-correct depth. Some are dropped and some
+    ///    kept (asserted; measured 1495 and 1505, 63682 pixels checked).
+    ///    Without the margins (the ball unshrunk) a dropped segment is seen
+    ///    at a pixel near the silhouette.
+    #[test]
+    fn t02_segments_behind_spheres_are_hidden_at_every_pixel() {
+        use crate::raster::coverage::ray_sphere;
+        use crate::raster::scene::{Camera, Sphere, Strands};
+        use crate::raster::setup::project_segments;
+        use crate::raster::view::View;
+        let camera = Camera {
+            position: Vec3::new(0.0, 0.0, 3.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 30.0,
+            width: 320,
+            height: 180,
+        };
+        let view = View::new(&camera, 4.0);
+        let sphere = Sphere {
+            center: Vec3::ZERO,
+            radius: 0.5,
+            albedo: Vec3::splat(0.5),
+        };
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut st = Strands {
+            points: Vec::new(),
+            radii: Vec::new(),
+            offsets: vec![0],
+        };
+        for _ in 0..3000 {
+            // around the sphere, mostly behind it as the camera sees it
+            let a = Vec3::new(rnd() - 0.5, rnd() - 0.5, -0.8 * rnd()) * 1.3;
+            let b = a + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.1;
+            st.points.extend([a, b]);
+            st.radii.extend([0.002 + 0.01 * rnd(), 0.002]);
+            st.offsets.push(st.points.len() as u32);
+        }
+        let segs = project_segments(&st, &view);
+        let n = segs.len();
+        let (kept, dropped) = behind_spheres(segs.clone(), std::slice::from_ref(&sphere), &view);
+        assert!(
+            dropped > 300 && kept.len() > 300,
+            "{dropped} dropped, {} kept",
+            kept.len()
+        );
+        assert_eq!(kept.len() as u64 + dropped, n as u64);
+        let kept_ids: std::collections::HashSet<u32> = kept.iter().map(|s| s.i).collect();
+        let mut pixels_checked = 0;
+        for s in segs.iter().filter(|s| !kept_ids.contains(&s.i)) {
+            let reach = s.pad() + 1.0;
+            let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
+            let len2 = d[0] * d[0] + d[1] * d[1];
+            let (x0, x1) = (s.a[0].min(s.b[0]) - reach, s.a[0].max(s.b[0]) + reach);
+            let (y0, y1) = (s.a[1].min(s.b[1]) - reach, s.a[1].max(s.b[1]) + reach);
+            for y in (y0.floor() as i32)..=(y1.ceil() as i32) {
+                for x in (x0.floor() as i32)..=(x1.ceil() as i32) {
+                    let pc = [x as f32 + 0.5, y as f32 + 0.5];
+                    let t = if len2 > 0.0 {
+                        (((pc[0] - s.a[0]) * d[0] + (pc[1] - s.a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    let c = [s.a[0] + t * d[0], s.a[1] + t * d[1]];
+                    if (pc[0] - c[0]).hypot(pc[1] - c[1]) > reach {
+                        continue;
+                    }
+                    let depth = 1.0 / ((1.0 - t) / s.za + t / s.zb);
+                    let ray = view.ray(pc[0], pc[1]);
+                    let hit = ray_sphere(view.eye, ray, sphere.center, sphere.radius)
+                        .map(|t| t * ray.dot(view.forward));
+                    assert!(
+                        hit.is_some_and(|z| z < depth),
+                        "segment {} at pixel {pc:?}: fragment depth {depth}, sphere {hit:?}",
+                        s.i
+                    );
+                    pixels_checked += 1;
+                }
+            }
+        }
+        assert!(pixels_checked > 1000, "{pixels_checked}");
     }
 }

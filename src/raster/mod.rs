@@ -293,6 +293,11 @@ pub fn render_with_progress(
     if opts.frustum_culling {
         segs = cull::frustum(segs, grid);
     }
+    if opts.opaque_culling {
+        let dropped;
+        (segs, dropped) = cull::behind_spheres(segs, &scene.spheres, &view);
+        stats.culled_behind_opaque += dropped;
+    }
     if opts.vertex_shading {
         let tv = std::time::Instant::now();
         let used = opts
