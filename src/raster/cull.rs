@@ -366,6 +366,16 @@ mod tests {
     use crate::raster::oit::{resolve_sorted, Fragment};
     use glam::Vec3;
 
+    /// Uniform numbers in [0, 1) from a xorshift generator.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
     /// 1. The bound of hair culling on the exact composite: random
     ///    fragments (coverage 0–1, radiance ≤ 1, in random order) over a
     ///    background of radiance ≤ 1; the sorted composite of the kept
@@ -375,13 +385,7 @@ mod tests {
     ///    saturated pixel's depth are never skipped.
     #[test]
     fn t01_skipped_hair_is_bounded_by_the_cutoff() {
-        let mut seed = 0x1234_5678_9abc_def0u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = uniform(0x1234_5678_9abc_def0);
         for cutoff in [1e-3f32, 1e-2, 0.1] {
             let mut worst = 0.0f32;
             let mut skipped_total = 0;
@@ -453,13 +457,7 @@ mod tests {
             radius: 0.5,
             albedo: Vec3::splat(0.5),
         };
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = uniform(0x9e37_79b9_7f4a_7c15);
         let mut st = Strands {
             points: Vec::new(),
             radii: Vec::new(),
