@@ -77,8 +77,10 @@ pub struct RenderStats {
     pub backfaces_culled: usize,
     pub fragments: u64,
     pub non_finite_pixels: u64,
-    /// Segment or card-triangle visits skipped because the tile's opaque
-    /// surface is in front of them everywhere.
+    /// Segments dropped behind an opaque sphere before binning
+    /// ([`cull::behind_spheres`]), and segment or card-triangle visits
+    /// skipped because the tile's opaque surface is in front of them
+    /// everywhere.
     pub culled_behind_opaque: u64,
     /// Hair fragments and segment visits skipped by hair culling (behind
     /// hair that is nearly opaque; see `cull::BehindHair`).
