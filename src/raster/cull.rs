@@ -16,6 +16,7 @@
 //! pixel's hair once that is nearly opaque.
 
 use super::bin::{segment_tiles, TileGrid};
+use super::coverage::ray_sphere;
 use super::scene::{Light, OpaqueTri, RenderOptions, Scene, Sphere};
 use super::setup::{Bounds, Segment};
 use super::view::View;
@@ -53,23 +54,22 @@ pub fn frustum(segs: Vec<Segment>, grid: TileGrid) -> Vec<Segment> {
 ///   that margin (far beyond f32 rounding), before `pw`'s depth, and the
 ///   sphere's depth there is less than the fragment's.
 ///
-/// Spheres the eye is inside, or that reach in front of the near plane,
-/// hide nothing here.
+/// Spheres that reach in front of the near plane (those the eye is inside
+/// among them) hide nothing here.
 pub fn behind_spheres(segs: Vec<Segment>, spheres: &[Sphere], view: &View) -> (Vec<Segment>, u64) {
     let eye = view.eye;
     let balls: Vec<&Sphere> = spheres
         .iter()
         .filter(|s| (s.center - eye).dot(view.forward) - s.radius > view.near)
-        .filter(|s| (s.center - eye).length() > s.radius)
         .collect();
     if balls.is_empty() {
         return (segs, 0);
     }
-    // whether the way from the eye to p meets the ball (c, r)
+    // whether the way from the eye to p meets the ball (c, r): the ray
+    // enters it before p (the eye is outside every ball kept above)
     let hidden = |p: Vec3, c: Vec3, r: f32| {
-        let d = p - eye;
-        let t = ((c - eye).dot(d) / d.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
-        (eye + d * t - c).length_squared() < r * r
+        let (dir, dist) = ((p - eye).normalize_or_zero(), (p - eye).length());
+        ray_sphere(eye, dir, c, r).is_some_and(|t| t < dist)
     };
     let before = segs.len();
     let kept: Vec<Segment> = segs
