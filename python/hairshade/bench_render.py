@@ -427,6 +427,9 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
         ("frustum_culling (close-up, per-pixel shading)", s_close, {}, (), ("frustum_culling",)),
         ("backface_culling (head as a closed 20k-triangle mesh)", s_meshed, {}, (), ("backface_culling",)),
         ("opaque_culling (hair behind the head)", s, {}, (), ("opaque_culling",)),
+        ("nearest_first (coverage 16, traced shadows, dual)", s,
+         dict(transparency={"coverage": {"samples": 16}}, shadows="traced", multiple_scattering="dual",
+              shading="split"), (), ("nearest_first",)),
         ("reuse_shadow_maps (camera moved)", s, {}, (), ("reuse_shadow_maps",)),
         ("light culling (4 dim far point lights)", s_lit, dict(light_cull_threshold=1e-4), (), ()),
         # approximate, bounded: hair behind nearly opaque hair (cutoff 1e-3)

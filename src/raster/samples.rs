@@ -210,10 +210,42 @@ pub fn surface_lead(r: f32, t: Vec3, p: Vec3, eye: Vec3, depth: f32) -> f32 {
 }
 
 /// The nearest fragment per sample of a tile's pixels.
+///
+/// Fragments may arrive in any order: a sample goes to the nearest, and at
+/// equal depth to the smaller key (the fragment's place in the scene's
+/// order), never to hair at the opaque surface's own depth. So the owners
+/// are the same whatever order the fragments are drawn in (the strand pass
+/// draws each tile's segments nearest first).
 pub struct SampleBuffer {
     pub n: usize,
     depth: Vec<f32>,
     owner: Vec<u32>,
+    /// The owner's key per sample (0 where none: the opaque surface keeps
+    /// its depth against hair at the same depth).
+    key: Vec<u32>,
+    /// Per pixel, the farthest of its samples' depths (NaN ignored).
+    far: Vec<f32>,
+}
+
+/// A fragment offered to a pixel's samples: its `id` (what a sample's
+/// owner names), its `key` in the scene's order, and a depth `depth_lo`
+/// that none of its samples lies nearer than.
+#[derive(Debug, Clone, Copy)]
+pub struct Claim {
+    pub id: u32,
+    pub key: u32,
+    pub depth_lo: f32,
+}
+
+impl Claim {
+    /// Whether the fragment, at depth `at` on a sample now at `depth` with
+    /// owner key `key`, takes it: nearer (and `depth_lo` nearer too, a
+    /// bound that lets a caller skip a sample's depth), or as near with a
+    /// smaller key.
+    #[inline(always)]
+    fn takes(&self, at: f32, depth: f32, key: u32) -> bool {
+        ((self.depth_lo < depth) & (at < depth)) | ((at == depth) & (self.key < key))
+    }
 }
 
 impl SampleBuffer {
@@ -226,35 +258,62 @@ impl SampleBuffer {
         Self {
             n,
             owner: vec![NONE; depth.len()],
+            key: vec![0; depth.len()],
             depth,
+            far: opaque_depth.to_vec(),
         }
     }
 
-    /// Fragment `id` over the samples `s` of pixel `k` that it covers,
-    /// `covers(s)` giving its depth there, where it lies nearest; whether
-    /// it took any. No depth `covers` gives is below `depth_lo`: samples
-    /// already nearer are skipped without it.
+    /// Whether a fragment none of whose sample depths lies below
+    /// `depth_lo` could take a sample of pixel `k`: whether `depth_lo`
+    /// lies no farther than the farthest of them. Where it does not,
+    /// [`Self::cover`] and [`Self::cover_strand`] given that `depth_lo`
+    /// take nothing ([`Claim::takes`]: each sample needs a depth at most
+    /// its own, and `depth_lo` is below every depth the fragment has), so
+    /// a caller may skip them.
+    #[inline]
+    pub fn may_take(&self, k: usize, depth_lo: f32) -> bool {
+        depth_lo <= self.far[k]
+    }
+
+    /// Pixel `k`'s farthest sample depth, after it took samples.
+    #[inline]
+    fn update_far(&mut self, k: usize) {
+        let base = k * self.n;
+        self.far[k] = self.depth[base..base + self.n]
+            .iter()
+            .fold(f32::NEG_INFINITY, |m, &d| m.max(d));
+    }
+
+    /// Fragment `c` over the samples `s` of pixel `k` that it covers,
+    /// `covers(s)` giving its depth there, where it lies nearest
+    /// ([`Claim::takes`]); whether it took any. No depth `covers` gives is
+    /// below `c.depth_lo`: samples already nearer are skipped without it.
     #[inline]
     pub fn cover(
         &mut self,
         k: usize,
-        id: u32,
-        depth_lo: f32,
+        c: Claim,
         mut covers: impl FnMut(usize) -> Option<f32>,
     ) -> bool {
         let base = k * self.n;
         let mut took = false;
         for s in 0..self.n {
-            if !(depth_lo < self.depth[base + s]) {
+            let (dst, key) = (self.depth[base + s], self.key[base + s]);
+            if !(c.depth_lo <= dst) {
                 continue;
             }
             if let Some(depth) = covers(s) {
-                if depth < self.depth[base + s] {
+                if c.takes(depth, dst, key) {
                     self.depth[base + s] = depth;
-                    self.owner[base + s] = id;
+                    self.owner[base + s] = c.id;
+                    self.key[base + s] = c.key;
                     took = true;
                 }
             }
+        }
+        if took {
+            self.update_far(k);
         }
         took
     }
@@ -267,8 +326,7 @@ impl SampleBuffer {
     pub fn cover_strand(
         &mut self,
         k: usize,
-        id: u32,
-        depth_lo: f32,
+        c: Claim,
         pts: &[[f32; 2]],
         seg: &StrandSamples,
     ) -> bool {
@@ -276,25 +334,15 @@ impl SampleBuffer {
         let run = Run {
             depth: &mut self.depth[base..base + self.n],
             owner: &mut self.owner[base..base + self.n],
+            key: &mut self.key[base..base + self.n],
             pts,
-            id,
-            depth_lo,
+            claim: c,
         };
-        #[cfg(target_arch = "x86_64")]
-        {
-            use crate::simd::Level;
-            // SAFETY: Level::detect checked that the CPU has what each needs.
-            match Level::detect() {
-                Level::Avx512 => unsafe {
-                    return cover_strand_avx512(run, seg);
-                },
-                Level::Avx2 => unsafe {
-                    return cover_strand_avx2(run, seg);
-                },
-                Level::Portable => {}
-            }
+        let took = cover_strand_dispatch(run, seg);
+        if took {
+            self.update_far(k);
         }
-        cover_strand_lanes::<4>(run, seg)
+        took
     }
 
     /// Samples owned per fragment (`counts[id]`, for ids below its length).
@@ -315,14 +363,34 @@ impl SampleBuffer {
     }
 }
 
+/// [`cover_strand_lanes`] at the widest vector level the CPU has.
+#[inline]
+fn cover_strand_dispatch(run: Run<'_>, seg: &StrandSamples) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use crate::simd::Level;
+        // SAFETY: Level::detect checked that the CPU has what each needs.
+        match Level::detect() {
+            Level::Avx512 => unsafe {
+                return cover_strand_avx512(run, seg);
+            },
+            Level::Avx2 => unsafe {
+                return cover_strand_avx2(run, seg);
+            },
+            Level::Portable => {}
+        }
+    }
+    cover_strand_lanes::<4>(run, seg)
+}
+
 /// A pixel's samples (its slices of the buffer and its points) and the
 /// fragment trying them.
 struct Run<'a> {
     depth: &'a mut [f32],
     owner: &'a mut [u32],
+    key: &'a mut [u32],
     pts: &'a [[f32; 2]],
-    id: u32,
-    depth_lo: f32,
+    claim: Claim,
 }
 
 /// [`SampleBuffer::cover_strand`]'s loop over a pixel's samples, in chunks
@@ -334,24 +402,26 @@ fn cover_strand_lanes<const W: usize>(run: Run<'_>, seg: &StrandSamples) -> bool
     let Run {
         depth,
         owner,
+        key,
         pts,
-        id,
-        depth_lo,
+        claim,
     } = run;
     let whole = pts.len() / W * W;
     let mut took = false;
-    for ((p, dst), own) in pts[..whole]
+    for (((p, dst), own), kd) in pts[..whole]
         .chunks_exact(W)
         .zip(depth[..whole].chunks_exact_mut(W))
         .zip(owner[..whole].chunks_exact_mut(W))
+        .zip(key[..whole].chunks_exact_mut(W))
     {
         let p: &[[f32; 2]; W] = p.try_into().expect("chunk of W");
         let dst: &mut [f32; W] = dst.try_into().expect("chunk of W");
         let own: &mut [u32; W] = own.try_into().expect("chunk of W");
-        took |= cover_strand_run(dst, own, p, (id, depth_lo), seg);
+        let kd: &mut [u32; W] = kd.try_into().expect("chunk of W");
+        took |= cover_strand_run(dst, own, kd, p, claim, seg);
     }
-    let rest = (&mut depth[whole..], &mut owner[whole..], &pts[whole..]);
-    took | cover_strand_run(rest.0, rest.1, rest.2, (id, depth_lo), seg)
+    let rest = (&mut depth[whole..], &mut owner[whole..], &mut key[whole..]);
+    took | cover_strand_run(rest.0, rest.1, rest.2, &pts[whole..], claim, seg)
 }
 
 /// The samples of one run: [`sample_hit`] at each, kept or not by
@@ -360,16 +430,23 @@ fn cover_strand_lanes<const W: usize>(run: Run<'_>, seg: &StrandSamples) -> bool
 fn cover_strand_run(
     depth: &mut [f32],
     owner: &mut [u32],
+    key: &mut [u32],
     pts: &[[f32; 2]],
-    (id, depth_lo): (u32, f32),
+    claim: Claim,
     seg: &StrandSamples,
 ) -> bool {
     let mut took = false;
-    for ((p, dst), own) in pts.iter().zip(depth.iter_mut()).zip(owner.iter_mut()) {
+    for (((p, dst), own), kd) in pts
+        .iter()
+        .zip(depth.iter_mut())
+        .zip(owner.iter_mut())
+        .zip(key.iter_mut())
+    {
         let (hit, at) = sample_hit(seg, *p);
-        let take = hit & (depth_lo < *dst) & (at < *dst);
+        let take = hit & claim.takes(at, *dst, *kd);
         *dst = if take { at } else { *dst };
-        *own = if take { id } else { *own };
+        *own = if take { claim.id } else { *own };
+        *kd = if take { claim.key } else { *kd };
         took |= take;
     }
     took
@@ -470,10 +547,17 @@ mod tests {
     #[test]
     fn t03_nearest_owns() {
         let mut b = SampleBuffer::new(4, &[5.0]);
-        assert!(b.cover(0, 0, 3.0, |s| (s < 2).then_some(3.0)));
-        assert!(b.cover(0, 1, 2.0, |s| (s == 1).then_some(2.0)));
-        assert!(!b.cover(0, 2, 4.0, |_| Some(4.0)) || b.owners(0).any(|o| o == Some(2)));
-        assert!(!b.cover(0, 3, 6.0, |_| Some(6.0)));
+        let claim = |id: u32, depth_lo: f32| Claim {
+            id,
+            key: id + 1,
+            depth_lo,
+        };
+        assert!(b.cover(0, claim(0, 3.0), |s| (s < 2).then_some(3.0)));
+        assert!(b.cover(0, claim(1, 2.0), |s| (s == 1).then_some(2.0)));
+        assert!(!b.cover(0, claim(2, 4.0), |_| Some(4.0)) || b.owners(0).any(|o| o == Some(2)));
+        assert!(!b.cover(0, claim(3, 6.0), |_| Some(6.0)));
+        // hair at the opaque surface's own depth does not take it
+        assert!(!b.cover(0, claim(4, 5.0), |_| Some(5.0)));
         let owners: Vec<_> = b.owners(0).collect();
         assert_eq!(owners, vec![Some(0), Some(1), Some(2), Some(2)]);
         let mut c = vec![0u32; 4];
@@ -548,6 +632,14 @@ mod tests {
         );
     }
 
+    /// Numbers in [0, 1) from a linear congruential sequence.
+    fn uniforms(mut seed: u32) -> impl FnMut() -> f32 {
+        move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            unit(seed)
+        }
+    }
+
     /// 5. The strand pass's branch-free `cover_strand` takes the same
     ///    samples at the same depths as `cover` with `strand_depth`, bit
     ///    for bit: 4000 random segments (tips and not, zero length, zero
@@ -556,11 +648,7 @@ mod tests {
     ///    `depth_lo` below, between and above the stored depths.
     #[test]
     fn t05_branch_free_strand_cover_equals_per_sample_cover() {
-        let mut seed = 7u32;
-        let mut r = || {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            unit(seed)
-        };
+        let mut r = uniforms(7u32);
         let pts = SamplePoints::new(16, 0, 0, TILE, TILE);
         let opaque = vec![3.0f32; (TILE * TILE) as usize];
         let (mut a, mut b) = (
@@ -586,8 +674,13 @@ mod tests {
             let lead = 0.3 * r();
             let lo = 0.5 + 3.0 * r();
             let pix = pts.pixel(k);
-            let ta = a.cover(k, id, lo, |s| strand_depth(&seg, d, inv_len2, lead, pix[s]));
-            let tb = b.cover_strand(k, id, lo, pix, &StrandSamples::new(&seg, d, inv_len2, lead));
+            let c = Claim {
+                id,
+                key: id % 97,
+                depth_lo: lo,
+            };
+            let ta = a.cover(k, c, |s| strand_depth(&seg, d, inv_len2, lead, pix[s]));
+            let tb = b.cover_strand(k, c, pix, &StrandSamples::new(&seg, d, inv_len2, lead));
             assert_eq!(ta, tb, "fragment {id}");
             taken += ta as u32;
         }
@@ -595,5 +688,77 @@ mod tests {
         let bits = |x: &SampleBuffer| x.depth.iter().map(|d| d.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&a), bits(&b));
         assert_eq!(a.owner, b.owner);
+        assert_eq!(a.key, b.key);
+    }
+
+    /// 6. The owners do not depend on the order fragments arrive in: 600
+    ///    random segments over one tile, a sixth of them exact copies of an
+    ///    earlier one (equal depths at every sample), drawn in scene order,
+    ///    nearest first, and farthest first, each pixel skipped where
+    ///    [`SampleBuffer::may_take`] says so: every sample ends with the
+    ///    same depth and the same owner (the smaller key among equals).
+    ///    Fails with ties broken by arrival (copies change owners).
+    #[test]
+    fn t06_owners_do_not_depend_on_order() {
+        let mut r = uniforms(11u32);
+        let pts = SamplePoints::new(16, 0, 0, TILE, TILE);
+        let opaque: Vec<f32> = (0..TILE * TILE)
+            .map(|k| if k % 5 == 0 { 2.0 } else { 9.0 })
+            .collect();
+        let mut segs: Vec<(Segment, f32)> = Vec::new();
+        for i in 0..600usize {
+            if i % 6 == 5 {
+                let j = (r() * i as f32) as usize % i;
+                segs.push(segs[j].clone());
+                continue;
+            }
+            let p0 = [r() * TILE as f32, r() * TILE as f32];
+            let p1 = [p0[0] + 6.0 * r() - 3.0, p0[1] + 6.0 * r() - 3.0];
+            let mut seg =
+                Segment::on_screen(p0, p1, (0.3 + 1.2 * r(), 0.3 + 1.2 * r()), i % 4 == 0);
+            (seg.za, seg.zb) = (1.0 + 3.0 * r(), 1.0 + 3.0 * r());
+            segs.push((seg, 0.05 * r()));
+        }
+        let draw = |order: &[usize]| {
+            let mut buf = SampleBuffer::new(16, &opaque);
+            for &i in order {
+                let (seg, lead) = &segs[i];
+                let d = [seg.b[0] - seg.a[0], seg.b[1] - seg.a[1]];
+                let len2 = d[0] * d[0] + d[1] * d[1];
+                let inv_len2 = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
+                let c = Claim {
+                    id: i as u32,
+                    key: i as u32,
+                    depth_lo: seg.za.min(seg.zb) - lead,
+                };
+                let ss = StrandSamples::new(seg, d, inv_len2, *lead);
+                for k in 0..(TILE * TILE) as usize {
+                    if buf.may_take(k, c.depth_lo) {
+                        buf.cover_strand(k, c, pts.pixel(k), &ss);
+                    }
+                }
+            }
+            buf
+        };
+        let scene: Vec<usize> = (0..segs.len()).collect();
+        let mut nearest = scene.clone();
+        let z = |i: usize| segs[i].0.za.min(segs[i].0.zb);
+        nearest.sort_by(|&a, &b| z(a).total_cmp(&z(b)).then(a.cmp(&b)));
+        let farthest: Vec<usize> = nearest.iter().rev().copied().collect();
+        let a = draw(&scene);
+        let copies_own = a
+            .owner
+            .iter()
+            .filter(|&&o| o != NONE && (o as usize) % 6 == 5)
+            .count();
+        for other in [draw(&nearest), draw(&farthest)] {
+            let bits = |x: &SampleBuffer| x.depth.iter().map(|d| d.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a), bits(&other));
+            assert_eq!(a.owner, other.owner);
+        }
+        // the copies tie with their originals: the originals (smaller
+        // keys) keep every sample a copy covers
+        assert_eq!(copies_own, 0);
+        assert!(a.owner.iter().filter(|&&o| o != NONE).count() > 2000);
     }
 }

@@ -230,6 +230,11 @@ pub struct RenderOptions {
     /// Skip hair behind a tile's farthest opaque surface (exact: such hair
     /// fails every pixel's depth test anyway).
     pub opaque_culling: bool,
+    /// Coverage samples: each tile's strand segments drawn nearest first,
+    /// and a pixel skipped for a segment where every sample already lies
+    /// nearer than the segment can reach (exact: the samples' owners do
+    /// not depend on the order, `samples::SampleBuffer`).
+    pub nearest_first: bool,
     /// Compile out model terms that cannot contribute (KarisHair's MS block
     /// at Scatter 0), and build no shadow map for a light that light
     /// culling skips at every hair point; exact.
@@ -327,6 +332,7 @@ impl Default for RenderOptions {
             frustum_culling: true,
             backface_culling: true,
             opaque_culling: true,
+            nearest_first: true,
             skip_unused: true,
             reuse_shadow_maps: true,
             light_cull_threshold: 1e-4,

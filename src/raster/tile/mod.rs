@@ -14,7 +14,7 @@ use super::bin::TILE;
 use super::coverage::{coverage_at, stretch_param, triangle_pixels, RowSpan, Tri2};
 use super::cull::{BehindHair, BehindOpaque};
 use super::oit::Layers;
-use super::samples::{surface_lead, unit, SampleBuffer, SamplePoints, StrandSamples};
+use super::samples::{surface_lead, unit, Claim, SampleBuffer, SamplePoints, StrandSamples};
 use super::scene::{RenderOptions, Scene, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
 use super::shade::{offset_line, NearLight};
@@ -275,6 +275,16 @@ impl<'a> Tile<'a> {
         }
     }
 
+    /// Whether a fragment none of whose samples lies nearer than `depth_lo`
+    /// could take one of pixel `k`'s samples (coverage mode; see
+    /// [`SampleBuffer::may_take`]).
+    #[inline]
+    fn may_take(&self, k: usize, depth_lo: f32) -> bool {
+        self.samples
+            .as_ref()
+            .is_some_and(|(_, buf)| buf.may_take(k, depth_lo))
+    }
+
     /// A hair fragment at tile pixel `k` over its samples (coverage mode;
     /// `depth`, the pixel centre's, is kept for the fragment): `cover`
     /// takes the samples where it lies nearest into the buffer, given the
@@ -347,9 +357,15 @@ impl<'a> Tile<'a> {
         let (x0, y0, tw, th) = (self.x0, self.y0, self.tw, self.th);
         let sampled = self.samples.is_some();
         let near = self.ctx.shader.near_field();
-        // With hair culling, front to back (nearest depth, then scene order).
+        // Coverage samples: pixels whose samples all lie nearer than a
+        // fragment are skipped before it is set up (exact: it would take
+        // none), most of them when the nearest hair comes first.
+        let skip = sampled && opts.nearest_first;
+        // With hair culling or that skip, front to back (nearest depth,
+        // then scene order; the samples' owners do not depend on the order:
+        // SampleBuffer).
         let mut sorted = std::mem::take(&mut self.sorted);
-        let bin = if self.hair.is_some() {
+        let bin = if self.hair.is_some() || skip {
             let segs = self.ctx.segs;
             let order = &mut self.order;
             order.clear();
@@ -393,6 +409,9 @@ impl<'a> Tile<'a> {
             let len2 = d[0] * d[0] + d[1] * d[1];
             let inv_len2 = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
             let z_min = s.za.min(s.zb);
+            // surface_lead's bound: 1/sin α ≤ 16 and view depth ≤ distance,
+            // so the lead is at most 16 radii (17: room for rounding)
+            let lead_max = 17.0 * s.ra.max(s.rb);
             for j in by0..=by1 as u32 {
                 if self
                     .hair
@@ -429,6 +448,19 @@ impl<'a> Tile<'a> {
                     if self.hidden_by_hair(k, depth) {
                         continue;
                     }
+                    // Coverage samples: no sample of this pixel lies nearer
+                    // than the centre's depth less the change over a pixel
+                    // and a half along the segment, less the lead (below;
+                    // at most `lead_max`). A pixel whose samples all lie
+                    // nearer takes none of them: skipped before the lead.
+                    let z_lo = if sampled {
+                        (depth - 1.5 * (s.zb - s.za).abs() * inv_len2.sqrt()).max(z_min)
+                    } else {
+                        f32::NAN
+                    };
+                    if skip && !self.may_take(k, z_lo - lead_max) {
+                        continue;
+                    }
                     let cov = if sampled { 0.0 } else { coverage_at(s, pc, t) };
                     if !sampled && !(cov > 0.0) {
                         continue;
@@ -442,17 +474,16 @@ impl<'a> Tile<'a> {
                         segment: s.i - s.strand,
                     };
                     if sampled {
+                        let lead = surface_lead(fiber.radius, tangent, pw, view.eye, depth);
+                        let lo = z_lo - lead;
+                        if skip && !self.may_take(k, lo) {
+                            continue;
+                        }
                         let line = if near {
                             offset_line(view, s, t, pw, tangent, fiber.radius)
                         } else {
                             [f32::NAN; 4]
                         };
-                        let lead = surface_lead(fiber.radius, tangent, pw, view.eye, depth);
-                        // no sample of this pixel lies nearer: the centre's
-                        // depth less the change over a pixel and a half
-                        // along the segment, less the lead
-                        let lo =
-                            (depth - 1.5 * (s.zb - s.za).abs() * inv_len2.sqrt()).max(z_min) - lead;
                         let seg = StrandSamples::new(s, d, inv_len2, lead);
                         self.sampled_fragment(
                             k,
@@ -462,7 +493,14 @@ impl<'a> Tile<'a> {
                             fiber,
                             color,
                             line,
-                            |buf, pix, id| buf.cover_strand(k, id, lo, pix, &seg),
+                            |buf, pix, id| {
+                                let c = Claim {
+                                    id,
+                                    key: si,
+                                    depth_lo: lo,
+                                };
+                                buf.cover_strand(k, c, pix, &seg)
+                            },
                         );
                     } else {
                         self.hair_fragment(k, depth, cov, pw, tangent, fiber, color);
@@ -516,7 +554,15 @@ impl<'a> Tile<'a> {
                         None,
                         no_line,
                         |buf, _, id| {
-                            buf.cover(k, id, depth, |_| {
+                            // (cards come after every strand, in scene
+                            // order: at equal depth the first drawn keeps
+                            // a sample)
+                            let c = Claim {
+                                id,
+                                key: u32::MAX,
+                                depth_lo: depth,
+                            };
+                            buf.cover(k, c, |_| {
                                 s += 1;
                                 (unit(seed.wrapping_add(s.wrapping_mul(0x6A09_E667))) < alpha)
                                     .then_some(depth)
