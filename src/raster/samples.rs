@@ -276,6 +276,13 @@ impl SampleBuffer {
         depth_lo <= self.far[k]
     }
 
+    /// The farthest of pixel `k`'s sample depths (NaN where no depth can
+    /// take a sample: [`Self::may_take`]).
+    #[inline]
+    pub fn farthest(&self, k: usize) -> f32 {
+        self.far[k]
+    }
+
     /// Pixel `k`'s farthest sample depth, after it took samples.
     #[inline]
     fn update_far(&mut self, k: usize) {

@@ -285,6 +285,18 @@ impl<'a> Tile<'a> {
             .is_some_and(|(_, buf)| buf.may_take(k, depth_lo))
     }
 
+    /// The farthest sample depth of the tile's pixels inside the image
+    /// (coverage mode; infinite without samples).
+    fn farthest_sample(&self) -> f32 {
+        match &self.samples {
+            Some((_, buf)) => self
+                .pixel_indices()
+                .map(|k| buf.farthest(k))
+                .fold(f32::NEG_INFINITY, f32::max),
+            None => f32::INFINITY,
+        }
+    }
+
     /// A hair fragment at tile pixel `k` over its samples (coverage mode;
     /// `depth`, the pixel centre's, is kept for the fragment): `cover`
     /// takes the samples where it lies nearest into the buffer, given the
@@ -380,8 +392,30 @@ impl<'a> Tile<'a> {
         } else {
             bin
         };
+        // With the skip: the farthest sample of the tile's pixels, renewed
+        // every few segments, and the widest lead of its segments; a
+        // segment nearest no nearer than that, less that lead, takes no
+        // sample, nor does any after it (they lie farther).
+        let lead_bound = if skip {
+            let segs = self.ctx.segs;
+            17.0 * bin
+                .iter()
+                .map(|&si| segs[si as usize].ra.max(segs[si as usize].rb))
+                .fold(0.0f32, f32::max)
+        } else {
+            0.0
+        };
+        let mut tile_far = f32::INFINITY;
         for (n, &si) in bin.iter().enumerate() {
             let s = &self.ctx.segs[si as usize];
+            if skip {
+                if n % 8 == 0 {
+                    tile_far = self.farthest_sample();
+                }
+                if s.za.min(s.zb) - lead_bound >= tile_far {
+                    break;
+                }
+            }
             if behind.hides(s.za.min(s.zb)) {
                 self.culled += 1;
                 continue;
