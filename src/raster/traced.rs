@@ -337,12 +337,20 @@ impl SegmentGrid {
         let Some(entry) = self.enter(o, d, t_max) else {
             return false;
         };
-        let passes = self.passes(o, d, entry, fiber, own_strand_passes);
+        // what the ray passes, found at its first hit (most rays toward a
+        // light in front of the fiber meet nothing)
+        let mut passes: Option<Passes> = None;
         self.walk(o, d, t_max, entry, |items, _| {
             items.iter().any(|&i| {
                 let s = &self.segments[i as usize];
                 s.may_hit(o, d, t_max)
-                    && capsule_hit(o, d, t_max, s).is_some_and(|t| !passes.passed(s.strand, t))
+                    && capsule_hit(o, d, t_max, s).is_some_and(|t| {
+                        !passes
+                            .get_or_insert_with(|| {
+                                self.passes(o, d, entry, fiber, own_strand_passes)
+                            })
+                            .passed(s.strand, t)
+                    })
             })
         })
     }
