@@ -48,7 +48,23 @@ impl Lighting {
         methods: &Methods,
         segments: &[WorldSegment],
     ) -> Self {
-        let traced = methods.traced.then(|| SegmentGrid::new(segments)).flatten();
+        // The near field's probes start within a fiber radius of the axis
+        // (shade::near): the grid lists capsules that much farther out so
+        // that they can be walked together.
+        let spread = if methods.near_field {
+            let r = segments
+                .iter()
+                .map(|s| s.ra.max(s.rb))
+                .filter(|r| r.is_finite())
+                .fold(0.0f32, f32::max);
+            r * 1.001 + 1e-5
+        } else {
+            0.0
+        };
+        let traced = methods
+            .traced
+            .then(|| SegmentGrid::with_spread(segments, spread))
+            .flatten();
         let env_lights = match &scene.environment {
             Some(env) if methods.environment_as_lights => Some(EnvLights::new(
                 scene,

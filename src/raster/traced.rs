@@ -6,6 +6,8 @@
 use super::setup::WorldSegment;
 use glam::Vec3;
 
+mod bundle;
+
 /// Strand segments binned to a uniform grid of cells.
 #[derive(Debug, Clone)]
 pub struct SegmentGrid {
@@ -26,6 +28,12 @@ pub struct SegmentGrid {
     /// Segments either side of one that may overlap it (1 unless segments
     /// are shorter than a fiber's diameter; at most [`TUBE_NEAR`]).
     tube_near: usize,
+    /// How much farther than its radius each capsule is listed, the box
+    /// grown by as much (the parallel rays of [`Self::occluded_bundle`]).
+    spread: f32,
+    /// Whether every capsule lies inside the box (none left out of it as
+    /// an outlier).
+    all_inside: bool,
 }
 
 /// The most (cell, segment) entries the grid's cell boxes may hold in all
@@ -42,10 +50,12 @@ struct Capsule {
     /// The radius squared.
     r2: f32,
     u: Vec3,
-    /// The radius squared of a sphere around the axis's midpoint holding
-    /// the capsule (padded by 1e-4 relative, so that rounding never makes
-    /// the sphere reject a ray the capsule test would accept).
-    reach2: f32,
+    /// The radius of a sphere around the axis's midpoint holding the
+    /// capsule (padded by 1e-4 relative, so that rounding never makes the
+    /// sphere reject a ray the capsule test would accept).
+    reach: f32,
+    /// The radius.
+    r: f32,
     strand: u32,
     /// Index in the world segments.
     segment: u32,
@@ -62,7 +72,7 @@ impl Capsule {
     fn may_hit(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         let w = self.a + 0.5 * self.u - o;
         let t = w.dot(d).clamp(0.0, t_max);
-        if (w - d * t).length_squared() > self.reach2 {
+        if (w - d * t).length_squared() > self.reach * self.reach {
             return false;
         }
         let n = d.cross(self.u);
@@ -96,6 +106,19 @@ impl SegmentGrid {
     /// inside it), cells a quarter of the median segment length wide (at
     /// most 256 cells a side); None without segments.
     pub fn new(segments: &[WorldSegment]) -> Option<Self> {
+        Self::with_spread(segments, 0.0)
+    }
+
+    /// [`Self::new`] with each capsule listed in the cells within
+    /// `spread` beyond its radius, and the box grown by `spread`, so that
+    /// rays parallel to one another and within `spread` of a middle ray
+    /// can walk that ray's cells together ([`Self::occluded_bundle`]).
+    pub fn with_spread(segments: &[WorldSegment], spread: f32) -> Option<Self> {
+        let spread = if spread.is_finite() {
+            spread.max(0.0)
+        } else {
+            0.0
+        };
         let caps: Vec<Capsule> = segments
             .iter()
             .enumerate()
@@ -109,7 +132,8 @@ impl SegmentGrid {
                     a: s.a,
                     r2: r * r,
                     u: s.b - s.a,
-                    reach2: reach * reach,
+                    reach,
+                    r,
                     strand: s.strand,
                     segment: i as u32,
                 }
@@ -133,6 +157,11 @@ impl SegmentGrid {
                 })
                 .collect(),
         )?;
+        let all_inside = caps.iter().all(|c| {
+            let (end, r) = (c.a + c.u, Vec3::splat(c.r2.sqrt()));
+            (c.a.min(end) - r).cmpge(lo).all() && (c.a.max(end) + r).cmple(hi).all()
+        });
+        let (lo, hi) = (lo - Vec3::splat(spread), hi + Vec3::splat(spread));
         let mut lengths: Vec<f32> = caps.iter().map(|c| c.u.length()).collect();
         let k = (lengths.len() - 1) / 2;
         let median_len = *lengths.select_nth_unstable_by(k, f32::total_cmp).1;
@@ -150,7 +179,7 @@ impl SegmentGrid {
         let entries = |cell: f32| -> f64 {
             caps.iter()
                 .map(|c| {
-                    let ext = c.u.abs() + Vec3::splat(2.0 * c.r2.sqrt());
+                    let ext = c.u.abs() + Vec3::splat(2.0 * (c.r2.sqrt() + spread));
                     ext.to_array()
                         .iter()
                         .map(|e| ((e / cell).min(256.0) as f64 + 2.0).min(257.0))
@@ -181,7 +210,7 @@ impl SegmentGrid {
         let pad = 1e-3 * cell;
         let mut lists: Vec<(u32, u32)> = Vec::new();
         for (i, c) in caps.iter().enumerate() {
-            let (end, r) = (c.a + c.u, c.r2.sqrt());
+            let (end, r) = (c.a + c.u, c.r2.sqrt() + spread);
             let (a, b) = (
                 cell_of(c.a.min(end) - Vec3::splat(r)),
                 cell_of(c.a.max(end) + Vec3::splat(r)),
@@ -248,6 +277,8 @@ impl SegmentGrid {
             empty_block,
             block_dims,
             tube_near,
+            spread,
+            all_inside,
         })
     }
 
@@ -973,7 +1004,8 @@ mod tests {
                 a,
                 r2: r * r,
                 u,
-                reach2: 0.0,
+                reach: 0.0,
+                r,
                 strand: 0,
                 segment: 0,
             };

@@ -102,11 +102,11 @@ impl Shader<'_> {
         v: Vec3,
         fiber: &Fiber,
     ) -> u64 {
-        let visible = |k: usize| {
+        let origin = |k: usize| {
             let h = -1.0 + (2 * k + 1) as f32 / VIS_OFFSETS as f32;
-            let o = surface_frame(t, v, h).map_or(p, |(_, n)| p + n * self.lookup_radius(fiber));
-            !self.traced_occluded(li, o, fiber)
+            surface_frame(t, v, h).map_or(p, |(_, n)| p + n * self.lookup_radius(fiber))
         };
+        let visible = |k: usize| !self.traced_occluded(li, origin(k), fiber);
         // PROBES offsets from edge to edge first; then each interval whose
         // ends disagree is halved until its ends are neighbours (the edge
         // of a shadow located to one bin, 1/32 of the radius), and the bins
@@ -120,11 +120,19 @@ impl Shader<'_> {
         // more while one is halved)
         let mut stack = [(0usize, 0usize); PROBES + 8];
         let mut n = 0;
-        out[0] = visible(0);
-        for k in 1..PROBES {
-            out[at(k)] = visible(at(k));
-            stack[n] = (at(k - 1), at(k));
-            n += 1;
+        // the probes' rays walked together where they can be (the same
+        // answers: traced::bundle), else one by one
+        let probes: [Vec3; PROBES] = std::array::from_fn(|k| origin(at(k)));
+        let together = self.traced_occluded_bundle(li, p, &probes, fiber);
+        for k in 0..PROBES {
+            out[at(k)] = match together {
+                Some(blocked) => blocked & (1 << k) == 0,
+                None => visible(at(k)),
+            };
+            if k > 0 {
+                stack[n] = (at(k - 1), at(k));
+                n += 1;
+            }
         }
         while n > 0 {
             n -= 1;

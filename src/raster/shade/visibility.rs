@@ -178,6 +178,34 @@ impl Shader<'_> {
         )
     }
 
+    /// [`Self::traced_occluded`] for several origins on one fiber around
+    /// axis point `p`, where light `li` is directional and the grid can
+    /// walk them together (`traced::bundle`): bit `k` set where origin `k`
+    /// is blocked; None otherwise (each traced alone then).
+    pub(super) fn traced_occluded_bundle(
+        &self,
+        li: usize,
+        p: Vec3,
+        origins: &[Vec3],
+        fiber: &Fiber,
+    ) -> Option<u32> {
+        let (Some(grid), Some(Some(_))) = (&self.lit.traced, self.shadows.get(li)) else {
+            return Some(0);
+        };
+        let light = &self.scene.lights[li];
+        if !matches!(light, crate::raster::scene::Light::Directional { .. }) {
+            return None;
+        }
+        grid.occluded_bundle(
+            p,
+            origins,
+            light.incident(p).0,
+            light.distance(p),
+            fiber,
+            self.own_strand_passes,
+        )
+    }
+
     /// The fraction of light `li` that reaches an opaque surface point `p`
     /// through the hair (RGB), where the shadow map does not hold hair:
     /// with the `traced` shadow model 0 or 1 by a ray, plus under dual
