@@ -29,8 +29,13 @@ impl MemoryEstimate {
 }
 
 /// Bytes of the traced shadows' segment grid per segment (measured 97 on
-/// the demo head; a segment across the cells' diagonals reaches more).
+/// the demo head, 106 with the capsules' radius kept; a segment across the
+/// cells' diagonals reaches more).
 const TRACED_BYTES_PER_SEGMENT: u64 = 128;
+/// The same with the near field, whose grid lists each capsule a fiber
+/// radius wider (`traced::bundle`: measured 208-209 on the six dense
+/// ChiangHair heads, whose fibers are thick against their cells).
+const TRACED_BYTES_PER_SEGMENT_SPREAD: u64 = 256;
 
 /// Bytes of one shadow map at `n²` texels while it is built: first-hair
 /// and opaque depth (2 floats per texel), up to 8 per-thread depth buffers
@@ -103,10 +108,16 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
         ));
     }
     if m.traced {
-        // Capsules (40 bytes) and their cell lists (4 bytes a cell a
-        // capsule reaches, ~8 at cells a quarter of a segment long: 97
-        // bytes a segment on the demo head), and up to 256³ list starts.
-        items.push(("traced segment grid", segments * TRACED_BYTES_PER_SEGMENT));
+        // Capsules (48 bytes) and their cell lists (4 bytes a cell a
+        // capsule reaches, ~8 at cells a quarter of a segment long, about
+        // twice as many listed a fiber radius wider for the near field),
+        // and up to 256³ list starts.
+        let per = if m.near_field {
+            TRACED_BYTES_PER_SEGMENT_SPREAD
+        } else {
+            TRACED_BYTES_PER_SEGMENT
+        };
+        items.push(("traced segment grid", segments * per));
     }
     if m.volume {
         // The medium, the light's integer tallies and its fluence, and the
