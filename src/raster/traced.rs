@@ -158,7 +158,7 @@ impl SegmentGrid {
                 .collect(),
         )?;
         let all_inside = caps.iter().all(|c| {
-            let (end, r) = (c.a + c.u, Vec3::splat(c.r2.sqrt()));
+            let (end, r) = (c.a + c.u, Vec3::splat(c.r));
             (c.a.min(end) - r).cmpge(lo).all() && (c.a.max(end) + r).cmple(hi).all()
         });
         let (lo, hi) = (lo - Vec3::splat(spread), hi + Vec3::splat(spread));
@@ -179,7 +179,7 @@ impl SegmentGrid {
         let entries = |cell: f32| -> f64 {
             caps.iter()
                 .map(|c| {
-                    let ext = c.u.abs() + Vec3::splat(2.0 * (c.r2.sqrt() + spread));
+                    let ext = c.u.abs() + Vec3::splat(2.0 * (c.r + spread));
                     ext.to_array()
                         .iter()
                         .map(|e| ((e / cell).min(256.0) as f64 + 2.0).min(257.0))
@@ -210,7 +210,7 @@ impl SegmentGrid {
         let pad = 1e-3 * cell;
         let mut lists: Vec<(u32, u32)> = Vec::new();
         for (i, c) in caps.iter().enumerate() {
-            let (end, r) = (c.a + c.u, c.r2.sqrt() + spread);
+            let (end, r) = (c.a + c.u, c.r + spread);
             let (a, b) = (
                 cell_of(c.a.min(end) - Vec3::splat(r)),
                 cell_of(c.a.max(end) + Vec3::splat(r)),

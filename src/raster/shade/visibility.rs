@@ -165,7 +165,7 @@ impl Shader<'_> {
     /// Whether a strand blocks light `li` from `o` (shadow model `traced`,
     /// a light that casts shadows), `fiber`'s own stretch left out.
     pub(super) fn traced_occluded(&self, li: usize, o: Vec3, fiber: &Fiber) -> bool {
-        let (Some(grid), Some(Some(_))) = (&self.lit.traced, self.shadows.get(li)) else {
+        let Some(grid) = self.traced_grid(li) else {
             return false;
         };
         let light = &self.scene.lights[li];
@@ -176,6 +176,15 @@ impl Shader<'_> {
             fiber,
             self.own_strand_passes,
         )
+    }
+
+    /// The strands' grid where light `li`'s shadows are traced (shadow
+    /// model `traced`, a light that casts shadows).
+    fn traced_grid(&self, li: usize) -> Option<&crate::raster::traced::SegmentGrid> {
+        match (&self.lit.traced, self.shadows.get(li)) {
+            (Some(grid), Some(Some(_))) => Some(grid),
+            _ => None,
+        }
     }
 
     /// [`Self::traced_occluded`] for several origins on one fiber around
@@ -189,7 +198,7 @@ impl Shader<'_> {
         origins: &[Vec3],
         fiber: &Fiber,
     ) -> Option<u32> {
-        let (Some(grid), Some(Some(_))) = (&self.lit.traced, self.shadows.get(li)) else {
+        let Some(grid) = self.traced_grid(li) else {
             return Some(0);
         };
         let light = &self.scene.lights[li];
