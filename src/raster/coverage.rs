@@ -164,18 +164,24 @@ impl RayCone {
 /// visiting the whole bounding box.
 pub struct RowSpan {
     a: [f32; 2],
-    d: [f32; 2],
-    /// `r·|d|`
-    r_len: f32,
+    /// `dx/dy` of the line, and the half-width of a row's span `r|d|/|dy|`
+    /// (once per segment: a row then costs a multiply-add).
+    slope: f32,
+    half: f32,
+    /// The whole bounding box: a line nearly parallel to the rows, or a
+    /// width not finite.
+    whole: bool,
 }
 
 impl RowSpan {
     pub fn new(s: &Segment, r: f32) -> Self {
         let d = [s.b[0] - s.a[0], s.b[1] - s.a[1]];
+        let r_len = r * (d[0] * d[0] + d[1] * d[1]).sqrt();
         Self {
             a: s.a,
-            d,
-            r_len: r * (d[0] * d[0] + d[1] * d[1]).sqrt(),
+            slope: d[0] / d[1],
+            half: r_len / d[1].abs(),
+            whole: d[1].abs() < 1e-6 || !r_len.is_finite(),
         }
     }
 
@@ -184,14 +190,14 @@ impl RowSpan {
     #[inline]
     pub fn pixels(&self, py: f32, x0: u32, bx0: u32, bx1: u32) -> Option<(u32, u32)> {
         // |(x − ax) dy − (py − ay) dx| ≤ r|d| bounds x when dy ≠ 0.
-        if self.d[1].abs() < 1e-6 || !self.r_len.is_finite() {
+        if self.whole {
             return Some((bx0, bx1));
         }
-        let c = self.a[0] + (py - self.a[1]) * self.d[0] / self.d[1];
-        let half = self.r_len / self.d[1].abs();
+        let (c, half) = (self.a[0] + (py - self.a[1]) * self.slope, self.half);
         // Pixel centers x0 + i + 0.5 within [c − half, c + half], widened by
         // 0.01 pixel against rounding (f32 coordinates below 2^14 pixels
-        // carry errors below 1e-3 pixel): i from ⌈c − half − x0 − 0.51⌉ to
+        // carry errors below 1e-3 pixel, the slope's rounding included): i
+        // from ⌈c − half − x0 − 0.51⌉ to
         // ⌊c + half − x0 − 0.49⌋. Truncation stands in for both (⌊⌋ on the
         // clamped, non-negative values: at most one extra pixel; the
         // baseline ISA has no rounding instruction, floor/ceil are calls).

@@ -196,6 +196,13 @@ impl BehindHair {
         depth > self.z_hidden[k]
     }
 
+    /// The depth behind which pixel `k` is hidden (its `z_sat`, or the
+    /// opaque depth).
+    #[inline]
+    pub fn hidden_depth(&self, k: usize) -> f32 {
+        self.z_hidden[k]
+    }
+
     /// Whether a primitive whose nearest depth is `z_min` is hidden at
     /// every pixel of tile row `j` (only once every pixel of it is hidden).
     #[inline]

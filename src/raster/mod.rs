@@ -55,7 +55,7 @@ pub mod view;
 pub mod volume;
 
 use crate::threads::pool;
-use bin::{bin_to_tiles, segment_tiles, triangle_tiles, TileGrid, TILE};
+use bin::{bin_in_order, bin_to_tiles, segment_tiles, triangle_tiles, TileGrid, TILE};
 use rayon::prelude::*;
 use scene::{RenderOptions, Scene};
 use shade::Shader;
@@ -338,7 +338,23 @@ pub fn render_with_progress(
     stats.backfaces_culled = backfaces_culled;
     let seg_ranges: Vec<_> =
         pool().install(|| segs.par_iter().map(|s| segment_tiles(s, grid)).collect());
-    let seg_bins = bin_to_tiles(&seg_ranges, grid);
+    // Tiles that draw their hair nearest first take it so from their bins:
+    // the segments sorted once for all tiles (nearest depth, then scene
+    // order: what each tile's own sort gave).
+    let seg_bins = if opts.draws_nearest_first() {
+        // (a view depth is positive and finite: its bits order as it does)
+        let mut order: Vec<u64> = segs
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (s.za.min(s.zb).to_bits() as u64) << 32 | i as u64)
+            .collect();
+        pool().install(|| order.par_sort_unstable());
+        let ids: Vec<u32> = order.iter().map(|&k| k as u32).collect();
+        let ranges: Vec<_> = ids.iter().map(|&i| seg_ranges[i as usize]).collect();
+        bin_in_order(&ranges, &ids, grid)
+    } else {
+        bin_to_tiles(&seg_ranges, grid)
+    };
     stats.segments_visible = seg_bins.binned;
     let card_ranges: Vec<_> = cards.iter().map(|t| triangle_tiles(&t.p, grid)).collect();
     let card_bins = bin_to_tiles(&card_ranges, grid);

@@ -306,6 +306,16 @@ pub struct RenderOptions {
 }
 
 impl RenderOptions {
+    /// Whether tiles draw their strand segments nearest first (nearest
+    /// depth, then scene order): under hair culling (MLAB and sorted
+    /// transparency), and under coverage samples with `nearest_first`.
+    pub fn draws_nearest_first(&self) -> bool {
+        match self.transparency {
+            Transparency::Coverage(_) => self.nearest_first,
+            Transparency::Mlab(_) | Transparency::Sorted => self.hair_cull_transmittance > 0.0,
+        }
+    }
+
     /// Inclusive range of the MLAB layer count.
     pub const LAYERS: (usize, usize) = (1, 64);
     /// Inclusive range of the shadow-map resolution.

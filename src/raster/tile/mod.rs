@@ -52,7 +52,9 @@ pub fn uniform_background(scene: &Scene, opts: &RenderOptions) -> Option<Vec3> {
     }
 }
 
-/// The primitives binned to one tile (indices, in scene order).
+/// The primitives binned to one tile (indices, in scene order; strand
+/// segments nearest first where the tile draws them so:
+/// `RenderOptions::draws_nearest_first`).
 pub struct TileBins<'a> {
     pub segs: &'a [u32],
     pub cards: &'a [u32],
@@ -98,8 +100,6 @@ pub struct TileMemory {
     layers: Option<Layers>,
     pending: Pending,
     hair: Option<BehindHair>,
-    order: Vec<(f32, u32)>,
-    sorted: Vec<u32>,
 }
 
 /// Renders tile `(tx, ty)` in the buffers of `mem`.
@@ -156,9 +156,6 @@ struct Tile<'a> {
     hair: Option<BehindHair>,
     /// The culling state of an earlier tile, to be reset and reused.
     spare_hair: Option<BehindHair>,
-    /// Scratch for the front-to-back order of the strand pass.
-    order: Vec<(f32, u32)>,
-    sorted: Vec<u32>,
     fragments: u64,
     culled: u64,
     /// Fragments and segment visits skipped by hair culling.
@@ -201,8 +198,6 @@ impl<'a> Tile<'a> {
             pending: mem.pending,
             hair: None,
             spare_hair: mem.hair,
-            order: mem.order,
-            sorted: mem.sorted,
             fragments: 0,
             culled: 0,
             hair_culled: 0,
@@ -250,6 +245,20 @@ impl<'a> Tile<'a> {
         let hidden = self.hair.as_ref().is_some_and(|h| h.hides(k, depth));
         self.hair_culled += hidden as u64;
         hidden
+    }
+
+    /// Whether hair culling hides every fragment at pixel `k` no nearer
+    /// than `z_lo`, by hair (counted) or by the opaque surface.
+    #[inline]
+    fn hidden_before_depth(&mut self, k: usize, z_lo: f32) -> bool {
+        let Some(h) = &self.hair else {
+            return false;
+        };
+        if !h.hides(k, z_lo) {
+            return false;
+        }
+        self.hair_culled += (h.hidden_depth(k) < self.opaque_depth[k]) as u64;
+        true
     }
 
     /// Tile-local indices of the pixels inside the image.
@@ -347,7 +356,11 @@ impl<'a> Tile<'a> {
         if let Some(h) = &mut self.hair {
             h.add(k, depth, alpha);
         }
-        if self.deferred {
+        // A fragment with its per-vertex radiance goes straight to the
+        // layers while none waits for the batch (strands come before
+        // cards, so every strand fragment does under per-vertex shading):
+        // the layers see the same order.
+        if self.deferred && !(color.is_some() && self.pending.k.is_empty()) {
             // shaded in the batch unless it carries its per-vertex radiance
             self.pending.push(k, depth, alpha, p, t, fiber);
             self.pending.color.push(color.unwrap_or(Vec3::NAN));
@@ -375,23 +388,19 @@ impl<'a> Tile<'a> {
         let skip = sampled && opts.nearest_first;
         // With hair culling or that skip, front to back (nearest depth,
         // then scene order; the samples' owners do not depend on the order:
-        // SampleBuffer).
-        let mut sorted = std::mem::take(&mut self.sorted);
-        let bin = if self.hair.is_some() || skip {
-            let segs = self.ctx.segs;
-            let order = &mut self.order;
-            order.clear();
-            order.extend(
-                bin.iter()
-                    .map(|&si| (segs[si as usize].za.min(segs[si as usize].zb), si)),
-            );
-            order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            sorted.clear();
-            sorted.extend(order.iter().map(|&(_, si)| si));
-            &sorted[..]
-        } else {
-            bin
-        };
+        // SampleBuffer): the bins list them so
+        // (`RenderOptions::draws_nearest_first`).
+        debug_assert_eq!(self.hair.is_some() || skip, opts.draws_nearest_first());
+        debug_assert!(
+            !opts.draws_nearest_first()
+                || bin.windows(2).all(|w| {
+                    let z = |si: u32| {
+                        let s = &self.ctx.segs[si as usize];
+                        s.za.min(s.zb)
+                    };
+                    z(w[0]).total_cmp(&z(w[1])).then(w[0].cmp(&w[1])).is_lt()
+                })
+        );
         // With the skip: the farthest sample of the tile's pixels, renewed
         // every few segments, and the widest lead of its segments; a
         // segment nearest no nearer than that, less that lead, takes no
@@ -446,6 +455,12 @@ impl<'a> Tile<'a> {
             // surface_lead's bound: 1/sin α ≤ 16 and view depth ≤ distance,
             // so the lead is at most 16 radii (17: room for rounding)
             let lead_max = 17.0 * s.ra.max(s.rb);
+            // Hair culling: a pixel hidden nearer than the segment's nearest
+            // depth (its perspective-correct depth, rounded, lies within a
+            // few ulps above it: 1e-6 relative is room for them) is skipped
+            // before its depth is computed (exact: the depth test or
+            // `hidden_by_hair` below would skip it).
+            let z_hidden_lo = z_min * (1.0 - 1e-6);
             for j in by0..=by1 as u32 {
                 if self
                     .hair
@@ -460,6 +475,9 @@ impl<'a> Tile<'a> {
                 };
                 for i in lo..=hi {
                     let k = (j * TILE + i) as usize;
+                    if self.hidden_before_depth(k, z_hidden_lo) {
+                        continue;
+                    }
                     let pc = [(x0 + i) as f32 + 0.5, py];
                     // The parameter of the centre line's point nearest the
                     // pixel centre: clamped (coverage samples), or on this
@@ -542,7 +560,6 @@ impl<'a> Tile<'a> {
                 }
             }
         }
-        self.sorted = sorted;
     }
 
     /// Card triangles: perspective-correct barycentrics, alpha from the

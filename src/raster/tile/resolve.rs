@@ -165,8 +165,6 @@ impl Tile<'_> {
             layers: Some(self.layers),
             pending: self.pending,
             hair: self.hair.or(self.spare_hair),
-            order: self.order,
-            sorted: self.sorted,
         };
         (result, memory)
     }
