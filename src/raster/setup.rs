@@ -322,13 +322,16 @@ pub fn project_segments(st: &Strands, view: &View) -> Vec<Segment> {
                     (va, vb) = (view.to_view(pa), view.to_view(pb));
                 }
             }
+            // widths across the projected axis, perspective's off-centre
+            // stretch included (View::fiber_width)
+            let tau = (vb - va).normalize_or_zero();
             push(Segment {
                 a: view.project2(va),
                 b: view.project2(vb),
                 za: va.z,
                 zb: vb.z,
-                wa: 2.0 * ra * view.focal / va.z,
-                wb: 2.0 * rb * view.focal / vb.z,
+                wa: view.fiber_width(va, tau, ra),
+                wb: view.fiber_width(vb, tau, rb),
                 pa,
                 pb,
                 last: i + 2 == i1,
