@@ -6,7 +6,7 @@ against both. Writes docs/separated.md and docs/separated.csv.
     python scripts/separated_compare.py --lights    # renders separated_lights.csv alone (needs bpy and mitsuba)
     python scripts/separated_compare.py --cut       # renders separated_cut.csv alone (needs bpy and mitsuba)
     python scripts/separated_compare.py --page      # writes separated.md again from the CSV files
-    python scripts/separated_compare.py --raster    # the rasterizer's columns of those two CSV files again
+    python scripts/separated_compare.py --raster    # the rasterizer's columns of those CSV files (and the B-splines') again
     python scripts/separated_compare.py --bspline   # renders separated_bspline.csv alone (needs bpy and mitsuba)
 
 Per head: the relaxation (strands kept, overlap before and after); Cycles /
@@ -156,8 +156,9 @@ def raster_rule_ratio(path: str) -> np.ndarray:
 
 
 def rerender_raster(out: str) -> None:
-    """The rasterizer's columns of separated_lights.csv and separated_cut.csv
-    again, the path tracers' kept (after a change of the renderer). A
+    """The rasterizer's columns of separated_lights.csv, separated_cut.csv
+    and separated_bspline.csv again, the path tracers' kept (after a change
+    of the renderer). A
     light's raster / Mitsuba divides by the Mitsuba mean its row holds
     (mitsuba_e3: four digits, 2e-4 of the value at worst)."""
     import shutil
@@ -185,6 +186,23 @@ def rerender_raster(out: str) -> None:
                         print(row, flush=True)
     write_csv(lights_csv, lights)
     write_csv(cut_csv, cut)
+    bs_csv = os.path.join(out, "separated_bspline.csv")
+    if not os.path.exists(bs_csv):
+        return
+    bs = list(csv.DictReader(open(bs_csv)))
+    for name in HEADS:
+        spec = json.load(open(os.path.join(SEPARATED, f"{name}.json")))
+        with tempfile.TemporaryDirectory() as tmp:
+            shutil.copy(os.path.join(SEPARATED, spec["hair"]["file"]), tmp)
+            for i, light in enumerate(spec["lights"]):
+                for row in bs:
+                    if (row["head"], row["light"]) == (name, light_label(i, light)):
+                        path = light_alone(spec, light, os.path.join(tmp, "scene.json"), curve=row["curve"])
+                        r = raster_direct(path)
+                        m = np.array([float(x) for x in row["mitsuba_e3"].split("/")]) / 1e3
+                        row.update(raster=fmt(r / m), raster_passes=fmt(raster_rule_ratio(path)), raster_e3=fmt(r * 1e3))
+                        print(row, flush=True)
+    write_csv(bs_csv, bs)
 
 
 def light_scenes(name: str) -> list[tuple[str, float, str]]:
@@ -318,8 +336,8 @@ def main() -> None:
     ap.add_argument("--bspline", action="store_true",
                     help="render separated_bspline.csv (the lights behind the hair on B-splines) and stop (bpy, mitsuba)")
     ap.add_argument("--raster", action="store_true",
-                    help="render the rasterizer's columns of separated_lights.csv and separated_cut.csv again, "
-                         "keep the path tracers', and stop")
+                    help="render the rasterizer's columns of separated_lights.csv, separated_cut.csv and "
+                         "separated_bspline.csv again, keep the path tracers', and stop")
     args = ap.parse_args()
     if args.page:
         page = open(os.path.join(args.out, "separated.md")).read()
