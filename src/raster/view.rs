@@ -2,7 +2,7 @@
 //! projection to pixel coordinates, and the near plane.
 
 use super::scene::Camera;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// The camera's basis and projection.
 #[derive(Debug, Clone, Copy)]
@@ -62,29 +62,27 @@ impl View {
     ///
     /// The fiber's silhouette lies at `v ± r m`, `m` the unit vector
     /// perpendicular to both the axis and the ray to `v` (to first order
-    /// in `r / |v|`); the projection's Jacobian `J` at `v` carries `m` to
-    /// the screen, and the width is `2 r |J m × Ĵτ|` (`Ĵτ` the projected
-    /// axis's unit direction). At the image centre this is `2 r f / z`;
-    /// off the centre a fiber running across the radial direction is wider
-    /// by up to `1 / cos` of the angle off the optical axis (4.4% at 17°,
-    /// as a path tracer's hits measure), one running along it is not. A
-    /// fiber seen along its axis (or with no tangent) keeps `2 r f / z`.
+    /// in `r / |v|`). The projection's Jacobian at `v` is `(f / z) P`, `P`
+    /// with rows `(1, 0, −v.x/z)` and `(0, −1, v.y/z)`; the width across the
+    /// projected axis is `2 r (f / z) |det[P m, P tau]| / |P tau|`, and
+    /// `det[P m, P tau] = (p1 × p2)·(m × tau) = −|tau × v| / z` (`p1 × p2 =
+    /// −v / z`, `m × tau = (v − tau (tau·v)) / |tau × v|`), so
+    /// `w = 2 r f |tau × v| / (z² |P tau|)`. At the image centre this is
+    /// `2 r f / z`; off the centre a fiber running across the radial
+    /// direction is wider by up to `1 / cos` of the angle off the optical
+    /// axis (4.4% at 17°, as a path tracer's hits measure), one running
+    /// along it is not. A fiber seen along its axis (or with no tangent)
+    /// keeps `2 r f / z`.
+    #[inline]
     pub fn fiber_width(&self, v: Vec3, tau: Vec3, r: f32) -> f32 {
         let centre = 2.0 * r * self.focal / v.z;
-        let m = tau.cross(v);
-        let m_len = m.length();
-        if !(m_len > 1e-6 * v.length()) || !centre.is_finite() {
+        let (a, b) = (v.x / v.z, v.y / v.z);
+        let p_tau = Vec2::new(tau.x - a * tau.z, tau.y - b * tau.z).length();
+        let across = tau.cross(v).length();
+        if !(p_tau > 1e-6 && across > 1e-6 * v.z) || !centre.is_finite() {
             return centre;
         }
-        let m = m / m_len;
-        // J x = (f / z) (x.x − v.x x.z / z, −(x.y − v.y x.z / z))
-        let jac = |x: Vec3| [x.x - v.x * x.z / v.z, -(x.y - v.y * x.z / v.z)];
-        let (a, o) = (jac(tau), jac(m));
-        let a_len = (a[0] * a[0] + a[1] * a[1]).sqrt();
-        if !(a_len > 0.0) {
-            return centre;
-        }
-        centre * ((o[0] * a[1] - o[1] * a[0]) / a_len).abs()
+        centre * across / (v.z * p_tau)
     }
 
     /// Pixel coordinates of a view-space point, as an array.
