@@ -112,20 +112,30 @@ pub fn bin_to_tiles(ranges: &[Option<TileRange>], grid: TileGrid) -> Bins {
     bin_listed(ranges, None, grid)
 }
 
-/// [`bin_to_tiles`] for the primitives `ids` (a permutation of their
-/// indices) in that order, `ranges[k]` the range of primitive `ids[k]`:
-/// every tile sees them in the order of `ids`.
+/// [`bin_to_tiles`] for the primitives `ids` (a permutation of the
+/// indices of `ranges`) in that order: every tile sees them in the order
+/// of `ids`.
 pub fn bin_in_order(ranges: &[Option<TileRange>], ids: &[u32], grid: TileGrid) -> Bins {
-    assert_eq!(ranges.len(), ids.len(), "one range per listed primitive");
+    assert_eq!(
+        ranges.len(),
+        ids.len(),
+        "ids: a permutation of the primitives"
+    );
     bin_listed(ranges, Some(ids), grid)
 }
 
+/// Bins the primitives in the order of `ids` (their own order when None).
 fn bin_listed(ranges: &[Option<TileRange>], ids: Option<&[u32]>, grid: TileGrid) -> Bins {
     use crate::threads::pool;
     use rayon::prelude::*;
     let tiles = grid.count();
+    // the primitive at place `k` of the order
+    let id = |k: usize| ids.map_or(k, |ids| ids[k] as usize);
     let chunk = (ranges.len() / (8 * crate::threads::num_threads()).max(1)).max(4096);
-    let chunks: Vec<&[Option<TileRange>]> = ranges.chunks(chunk).collect();
+    let chunks: Vec<std::ops::Range<usize>> = (0..ranges.len())
+        .step_by(chunk)
+        .map(|k| k..(k + chunk).min(ranges.len()))
+        .collect();
     let cover = |r: TileRange| {
         (r.y0..=r.y1).flat_map(move |ty| (r.x0..=r.x1).map(move |tx| (ty * grid.x + tx) as usize))
     };
@@ -135,8 +145,8 @@ fn bin_listed(ranges: &[Option<TileRange>], ids: Option<&[u32]>, grid: TileGrid)
             .par_iter()
             .map(|c| {
                 let mut n = vec![0u32; tiles];
-                for r in c.iter().flatten() {
-                    for t in cover(*r) {
+                for r in c.clone().filter_map(|k| ranges[id(k)]) {
+                    for t in cover(r) {
                         n[t] += 1;
                     }
                 }
@@ -166,18 +176,15 @@ fn bin_listed(ranges: &[Option<TileRange>], ids: Option<&[u32]>, grid: TileGrid)
         chunks.par_iter().enumerate().for_each(|(c, part)| {
             let out = &out;
             let mut next = starts[c].clone();
-            let first = c * chunk;
-            for (k, r) in part.iter().enumerate() {
-                let Some(r) = r else { continue };
-                for t in cover(*r) {
+            for k in part.clone() {
+                let Some(r) = ranges[id(k)] else { continue };
+                for t in cover(r) {
                     // SAFETY: chunk c's places in tile t are
                     // starts[c][t]..starts[c][t] + counts[c][t], disjoint
                     // from every other chunk's and inside `items`; it
                     // writes exactly counts[c][t] of them (the same
                     // ranges as counted).
-                    unsafe {
-                        *out.0.add(next[t]) = ids.map_or((first + k) as u32, |ids| ids[first + k])
-                    };
+                    unsafe { *out.0.add(next[t]) = id(k) as u32 };
                     next[t] += 1;
                 }
             }
@@ -227,8 +234,7 @@ mod tests {
         for i in (1..n).rev() {
             ids.swap(i, rnd(i as u32 + 1) as usize);
         }
-        let listed: Vec<_> = ids.iter().map(|&i| ranges[i as usize]).collect();
-        let bins = bin_in_order(&listed, &ids, grid);
+        let bins = bin_in_order(&ranges, &ids, grid);
         let covers = |r: &TileRange, t: usize| {
             let (tx, ty) = grid.coords(t);
             (r.x0..=r.x1).contains(&tx) && (r.y0..=r.y1).contains(&ty)

@@ -350,8 +350,7 @@ pub fn render_with_progress(
             .collect();
         pool().install(|| order.par_sort_unstable());
         let ids: Vec<u32> = order.iter().map(|&k| k as u32).collect();
-        let ranges: Vec<_> = ids.iter().map(|&i| seg_ranges[i as usize]).collect();
-        bin_in_order(&ranges, &ids, grid)
+        bin_in_order(&seg_ranges, &ids, grid)
     } else {
         bin_to_tiles(&seg_ranges, grid)
     };

@@ -602,7 +602,9 @@ mod tests {
             let dir = Vec3::new(0.2 * a.sin(), a.sin(), -a.cos()).normalize();
             let (pa, pb) = (-0.2 * dir, 0.2 * dir);
             let (va, vb) = (view.to_view(pa), view.to_view(pb));
-            let w = |v: Vec3| 2.0 * r * view.focal / v.z;
+            // widths as `setup::project_segments` draws them
+            let tau = (vb - va).normalize();
+            let w = |v: Vec3| view.fiber_width(v, tau, r);
             let mut s =
                 Segment::on_screen(view.project2(va), view.project2(vb), (w(va), w(vb)), false);
             (s.za, s.zb) = (va.z, vb.z);

@@ -291,7 +291,8 @@ mod tests {
         ] {
             let (a, b) = (on_screen(pa), on_screen(pb));
             // widths as `setup::project_segments` draws them
-            let w = |p: Vec3| 2.0 * r * view.focal / view.to_view(p).z;
+            let tau = (view.to_view(pb) - view.to_view(pa)).normalize();
+            let w = |p: Vec3| view.fiber_width(view.to_view(p), tau, r);
             let mut s = Segment::on_screen(a, b, (w(pa), w(pb)), false);
             s.pa = pa;
             s.pb = pb;

@@ -84,15 +84,21 @@ fn locality_order(index: &mut [usize], points: &[Vec3]) {
         return;
     }
     let scale = 1023.0 / extent.max_element().max(f32::MIN_POSITIVE);
-    let key = |i: usize| {
-        let q = ((points[i] - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
-        morton3(q.x as u32) | morton3(q.y as u32) << 1 | morton3(q.z as u32) << 2
-    };
-    let mut keyed: Vec<(u32, usize)> = index.iter().map(|&i| (key(i), i)).collect();
+    let mut keyed: Vec<(u32, usize)> = index
+        .iter()
+        .map(|&i| (morton_key(points[i], lo, scale), i))
+        .collect();
     pool().install(|| keyed.par_sort_unstable());
     for (slot, (_, i)) in index.iter_mut().zip(keyed) {
         *slot = i;
     }
+}
+
+/// The Morton code of `p` on the grid of cells `1 / scale` wide from `lo`
+/// (1024 a side).
+fn morton_key(p: Vec3, lo: Vec3, scale: f32) -> u32 {
+    let q = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+    morton3(q.x as u32) | morton3(q.y as u32) << 1 | morton3(q.z as u32) << 2
 }
 
 /// The 10 low bits of `x` spread to every third bit.
@@ -302,10 +308,7 @@ mod tests {
             |(lo, hi), &i| (lo.min(points[i]), hi.max(points[i])),
         );
         let scale = 1023.0 / (hi - lo).max_element();
-        let key = |i: usize| {
-            let q = ((points[i] - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
-            morton3(q.x as u32) | morton3(q.y as u32) << 1 | morton3(q.z as u32) << 2
-        };
+        let key = |i: usize| morton_key(points[i], lo, scale);
         assert!(index.windows(2).all(|w| key(w[0]) <= key(w[1])));
     }
 }
