@@ -215,9 +215,10 @@ TRANSPORT_HEADS = ("auburn_key", "black_top", "blond_back", "clumped_blond_key",
 def transport(tmp: str, rows: list, md: list) -> None:
     md += ["## The two transports over the grid's resolution", "",
            "`accurate` with volume scattering, 2^18 photons per light; `medium`: photons fly through the oriented "
-           "fiber medium calibrated against the strands (the default); `strands`: between the fibers they really "
+           "fiber medium calibrated against the strands; `strands` (the default): between the fibers they really "
            "meet, traced through the strands (the transport of the reference, to the event's position within a "
-           "fiber radius), the medium only holding the tallies. The multiple-scattering part's mean over the "
+           "fiber radius), the medium only holding the tallies, and each fiber reading only the light other "
+           "strands scattered. The multiple-scattering part's mean over the "
            "truth's, relMSE against the truth, and the solve's time.", "",
            "| head | transport | cells a side | mean / truth | relMSE | MS part / truth's | solve s |",
            "| --- | --- | --- | --- | --- | --- | --- |"]

@@ -174,9 +174,9 @@ class VolumeOptions(TypedDict, total=False):
     bins: Annotated[int, Native("volume_bins"), Doc(
         "octahedral direction bins per side (bins² directions per voxel)")]
     transport: Annotated[Literal["medium", "strands"], Native("volume_transport"), Doc(
-        "photons fly through the oriented fiber medium, or between the fibers they really meet, traced "
-        "through the strands (exact transport: its error falls with the resolution, docs/volume_transport.md; "
-        "slower)")]
+        "photons fly between the fibers they really meet, traced through the strands (the default: exact "
+        "transport, docs/volume_transport.md), or through the oriented fiber medium (about 2x faster to "
+        "solve; its bias depends on the light, docs/volume.md)")]
 
 
 class NoOptions(TypedDict, total=False):

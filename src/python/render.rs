@@ -403,9 +403,9 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         volume_resolution: r.int("volume_resolution", def.volume_resolution as i64)? as usize,
         volume_photons: r.int("volume_photons", def.volume_photons as i64)? as usize,
         volume_bins: r.int("volume_bins", def.volume_bins as i64)? as usize,
-        volume_transport: match r.choice("volume_transport", "medium", &["medium", "strands"])? {
-            "strands" => VolumeTransport::Strands,
-            _ => VolumeTransport::Medium,
+        volume_transport: match r.choice("volume_transport", "strands", &["medium", "strands"])? {
+            "medium" => VolumeTransport::Medium,
+            _ => VolumeTransport::Strands,
         },
         sphere_bounce: r.flag("sphere_bounce", def.sphere_bounce)?,
         near_field: r.flag("near_field", def.near_field)?,

@@ -354,7 +354,7 @@ impl Default for RenderOptions {
             volume_resolution: 48,
             volume_photons: 1 << 18,
             volume_bins: 8,
-            volume_transport: VolumeTransport::Medium,
+            volume_transport: VolumeTransport::Strands,
             sphere_bounce: true,
             near_field: true,
             traced_own_strand_passes: false,
@@ -380,10 +380,10 @@ pub enum Backscatter {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum VolumeTransport {
     /// Through the oriented fiber medium (`"medium"`), calibrated against
-    /// the strands.
+    /// the strands (faster; its bias depends on the light: docs/volume.md).
     Medium,
     /// Between the fibers they really meet, traced through the strands
-    /// (`"strands"`); the medium only holds the tallies.
+    /// (`"strands"`, the default); the medium only holds the tallies.
     Strands,
 }
 

@@ -694,7 +694,7 @@ impl<'a> Shader<'a> {
                 x += self.split_terms(q, t, v, f);
             }
             if let Some(vol) = &self.volume {
-                x += vol.radiance(q, t, v);
+                x += vol.radiance(q, t, v, f.strand);
             }
             x
         };

@@ -69,6 +69,9 @@ pub struct Cells {
     /// hair's edge, which light crosses unscattered, count as much as dense
     /// ones.
     pub weight: Vec<f32>,
+    /// Per slot: the mean position of the cell's fibers (weighted as
+    /// `weight`), from the cell's centre, in cells.
+    pub centroid: Vec<Vec3>,
 }
 
 /// Medium voxels per cell side: the medium is resolved finer than the
@@ -138,7 +141,7 @@ pub fn bytes_estimate(scene: &Scene, resolution: usize) -> usize {
         .sum();
     let occupied = (pieces as usize).min(dense);
     let cells = dense.div_ceil(FINE * FINE * FINE);
-    dense * 8 + occupied * (32 + TANGENTS * 12 + 4) + cells * 12
+    dense * 8 + occupied * (32 + TANGENTS * 12 + 4) + cells * 24
 }
 
 /// Cells of a medium of `scene` at `resolution` (all of them: an upper
@@ -169,6 +172,7 @@ impl Medium {
                 slot: Vec::new(),
                 cell_of: Vec::new(),
                 weight: Vec::new(),
+                centroid: Vec::new(),
             },
         };
         // per slot: the reservoir's total weight
@@ -220,6 +224,7 @@ impl Medium {
         c.slot = vec![u32::MAX; cd[0] * cd[1] * cd[2]];
         c.cell_of.clear();
         c.weight.clear();
+        c.centroid.clear();
         let d = self.dims;
         let per_cell = 1.0 / (FINE * FINE * FINE) as f32;
         for ((&v, &f), m) in self.voxel_of.iter().zip(free).zip(&self.moments) {
@@ -231,8 +236,21 @@ impl Medium {
                 c.slot[n] = c.cell_of.len() as u32;
                 c.cell_of.push(n as u32);
                 c.weight.push(0.0);
+                c.centroid.push(Vec3::ZERO);
             }
-            c.weight[c.slot[n] as usize] += f * w * per_cell;
+            let s = c.slot[n] as usize;
+            c.weight[s] += f * w * per_cell;
+            // the voxel's centre within its cell, in cells from the cell's centre
+            let within = Vec3::new(
+                (i % FINE) as f32 + 0.5,
+                (j % FINE) as f32 + 0.5,
+                (k % FINE) as f32 + 0.5,
+            ) / FINE as f32
+                - Vec3::splat(0.5);
+            c.centroid[s] += within * (f * w * per_cell);
+        }
+        for (g, &w) in c.centroid.iter_mut().zip(&c.weight) {
+            *g = if w > 0.0 { *g / w } else { Vec3::ZERO };
         }
         for (v, s) in self.slots.iter_mut().enumerate() {
             // light is tallied in the voxels that hold hair
@@ -397,6 +415,6 @@ impl Medium {
         self.slots.len() * 8
             + self.moments.len() * (32 + TANGENTS * 12 + 4)
             + self.cells.slot.len() * 4
-            + self.cells.cell_of.len() * 8
+            + self.cells.cell_of.len() * 20
     }
 }

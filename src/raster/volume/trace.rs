@@ -215,6 +215,21 @@ impl Emitter {
 pub struct Tally<'a> {
     pub sums: &'a [std::sync::atomic::AtomicU64],
     pub bins: Bins,
+    /// Strand groups tallied apart ([`GROUPS`] under the strands
+    /// transport, else 1).
+    pub groups: usize,
+}
+
+/// Groups the strands transport tallies apart: light a strand scattered
+/// is kept in its strand's group, so that a fiber reads only the light
+/// that other strands scattered (`super::VolumeRadiance::radiance`).
+pub const GROUPS: usize = 2;
+
+/// The group of `strand` (a hash, so that neighbouring strands of a clump
+/// fall in either group).
+#[inline]
+pub fn group_of(strand: u32) -> usize {
+    (mix64(strand as u64 ^ 0x9E37_79B9) >> 63) as usize
 }
 
 /// Words per voxel and bin: RGB, then the weighted direction.
@@ -224,9 +239,9 @@ pub const FIXED: f64 = 4_294_967_296.0;
 
 impl Tally<'_> {
     #[inline]
-    fn add(&self, slot: usize, bin: usize, w: Vec3, d: Vec3) {
+    fn add(&self, slot: usize, group: usize, bin: usize, w: Vec3, d: Vec3) {
         use std::sync::atomic::Ordering::Relaxed;
-        let base = (slot * self.bins.count() + bin) * WORDS;
+        let base = ((slot * self.groups + group) * self.bins.count() + bin) * WORDS;
         for (c, x) in w.to_array().into_iter().enumerate() {
             let q = (x as f64 * FIXED) as u64;
             if q > 0 {
@@ -240,6 +255,16 @@ impl Tally<'_> {
                 self.sums[base + 3 + c].fetch_add(q as u64, Relaxed);
             }
         }
+    }
+}
+
+/// A group drawn uniformly (light that no strand scattered).
+#[inline]
+fn random_group(groups: usize, rng: &mut Rng) -> usize {
+    if groups > 1 {
+        ((rng.uniform() * groups as f32) as usize).min(groups - 1)
+    } else {
+        0
     }
 }
 
@@ -306,6 +331,9 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
     let mut events = 0u32;
     // the fiber the photon leaves (strand transport)
     let mut fiber = crate::raster::shade::Fiber::NONE;
+    // the tally group of the light since the last event: its strand's, or
+    // (off a sphere, or in the medium) either, at random
+    let mut group = 0usize;
     let inv_voxel = 1.0 / m.voxel;
     let inv_cell = 1.0 / m.cells.size;
     loop {
@@ -348,7 +376,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
             let (mut run_cell, mut run) = (u32::MAX, 0.0f32);
             let flush = |cell: u32, len: f32| {
                 if events > 0 && cell != u32::MAX && len > 0.0 {
-                    tally.add(cell as usize, bin, w * (len * inv_cell), d);
+                    tally.add(cell as usize, group, bin, w * (len * inv_cell), d);
                 }
             };
             let mut t = t_in;
@@ -401,6 +429,11 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
             // a strand's fiber
             o += d * tc;
             fiber = met;
+            group = if tally.groups > 1 {
+                group_of(met.strand)
+            } else {
+                0
+            };
             let Some((dn, f)) = phase.scatter(d, t_fiber, rng) else {
                 return;
             };
@@ -410,6 +443,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
             // a fiber of the medium
             o += d * tc;
             let t = m.fiber_met(s, d, rng.uniform());
+            group = random_group(tally.groups, rng);
             let Some((dn, f)) = phase.scatter(d, t, rng) else {
                 return;
             };
@@ -422,6 +456,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
             let n = (o - sp.center).normalize();
             o = sp.center + n * (sp.radius * (1.0 + 1e-5));
             fiber = crate::raster::shade::Fiber::NONE;
+            group = random_group(tally.groups, rng);
             let (a, b) = n.any_orthonormal_pair();
             let (u1, u2) = (rng.uniform(), rng.uniform());
             let r = u1.sqrt();
