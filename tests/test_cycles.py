@@ -90,9 +90,9 @@ def test_03_what_the_bridge_refuses():
 
 
 # The accurate preset against Cycles' references of the dense heads
-# (tests/data/cycles): relMSE and mean ratio per channel as measured with
-# the volume's strands transport as the default (docs/three_truths.md has
-# the fiber medium's, before it: every head here is now nearer Cycles,
+# (docs/three_truths.md; tests/data/cycles): relMSE and mean ratio per
+# channel as measured there, with the volume's strands transport as the
+# default (every head nearer Cycles than through the fiber medium before:
 # blond_back 1.53e-2 and 1.165/1.170/1.158 -> 9.35e-3 and 1.096/1.101/1.096).
 # The rasterizer is deterministic, so the margin (25% on relMSE, 0.03 on a
 # ratio, as test_dual's against Mitsuba) covers other machines' float
