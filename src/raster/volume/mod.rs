@@ -188,11 +188,10 @@ impl VolumeRadiance {
         let emitters: Vec<Emitter> = lights.iter().map(|l| Emitter::new(l, c, r)).collect();
         let total: f64 = emitters.iter().map(|e| e.power as f64).sum();
         let slots = medium.cells.cell_of.len();
-        let groups = if settings.transport == VolumeTransport::Strands && grid.is_some() {
-            trace::GROUPS
-        } else {
-            1
-        };
+        // the strands photons fly between (None: through the medium), and
+        // the groups their tallies keep apart
+        let strands = grid.filter(|_| settings.transport == VolumeTransport::Strands);
+        let groups = if strands.is_some() { trace::GROUPS } else { 1 };
         let sums: Vec<AtomicU64> = (0..slots * groups * bins.count() * trace::WORDS)
             .map(|_| AtomicU64::new(0))
             .collect();
@@ -228,7 +227,7 @@ impl VolumeRadiance {
                 phase: &phase,
                 spheres: &scene.spheres,
                 tally: &tally,
-                strands: grid.filter(|_| settings.transport == VolumeTransport::Strands),
+                strands,
             };
             let chunks = n.div_ceil(CHUNK);
             pool().install(|| {
