@@ -46,6 +46,52 @@ pub struct Medium {
     /// the cell holding it (`u32::MAX`: none), side by side for the
     /// photons' walk.
     pub slots: Vec<[u32; 2]>,
+    /// Dense voxel index -> the distance (L∞, in voxels, at most
+    /// [`EMPTY_REACH`]) to the nearest voxel holding hair: the voxels
+    /// less than this away hold none, and a photon crosses them without
+    /// reading them.
+    pub empty: Vec<u8>,
+}
+
+/// The farthest [`Medium::empty`] looks (a photon leaving the hair crosses
+/// empty voxels in runs of up to 2·EMPTY_REACH − 1 without reading them;
+/// on blond_back, 89% of the voxels photons crossed were empty).
+pub const EMPTY_REACH: u8 = 6;
+
+/// Per voxel of a grid of `dims`, the L∞ distance in voxels to the nearest
+/// voxel where `hair` holds (capped at [`EMPTY_REACH`]): the distance to a
+/// set is separable in L∞, min over u of max_k |v_k − u_k|, so three
+/// passes along the axes, each g(i) = min_j max(|i − j|, f(j)), give it.
+fn empty_distance(hair: impl Fn(usize) -> bool, dims: [usize; 3]) -> Vec<u8> {
+    let n = dims[0] * dims[1] * dims[2];
+    let mut f: Vec<u8> = (0..n)
+        .map(|v| if hair(v) { 0 } else { EMPTY_REACH })
+        .collect();
+    let strides = [1, dims[0], dims[0] * dims[1]];
+    for (axis, &stride) in strides.iter().enumerate() {
+        let len = dims[axis];
+        let mut g = f.clone();
+        for v in 0..n {
+            if g[v] == 0 {
+                continue;
+            }
+            let i = (v / stride) % len;
+            let mut best = g[v];
+            for off in 1..EMPTY_REACH as usize {
+                if off >= best as usize {
+                    break;
+                }
+                let lo = (i >= off).then(|| f[v - off * stride]);
+                let hi = (i + off < len).then(|| f[v + off * stride]);
+                for x in [lo, hi].into_iter().flatten() {
+                    best = best.min(x.max(off as u8));
+                }
+            }
+            g[v] = best;
+        }
+        f = g;
+    }
+    f
 }
 
 /// The grid the light is tallied on: [`FINE`] medium voxels a side per
@@ -162,6 +208,7 @@ impl Medium {
             voxel,
             dims,
             slots: vec![[u32::MAX; 2]; dims[0] * dims[1] * dims[2]],
+            empty: Vec::new(),
             moments: Vec::new(),
             tangents: Vec::new(),
             voxel_of: Vec::new(),
@@ -198,6 +245,7 @@ impl Medium {
             }
         }
         m.build_cells(&free);
+        m.empty = empty_distance(|v| m.slots[v][0] != u32::MAX, m.dims);
         Some(m)
     }
 
@@ -416,5 +464,49 @@ impl Medium {
             + self.moments.len() * (32 + TANGENTS * 12 + 4)
             + self.cells.slot.len() * 4
             + self.cells.cell_of.len() * 20
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 1. The empty distance is the brute force's: per voxel, the least L∞
+    ///    distance to a voxel holding hair, capped at [`EMPTY_REACH`].
+    #[test]
+    fn empty_distance_is_the_brute_force() {
+        let dims = [13, 9, 11];
+        let n = dims[0] * dims[1] * dims[2];
+        let mut st = 0x9e37_79b9_7f4a_7c15u64;
+        let hair: Vec<bool> = (0..n)
+            .map(|_| {
+                st = mix64(st);
+                st % 97 == 0
+            })
+            .collect();
+        let at = |v: usize| {
+            [
+                v % dims[0],
+                (v / dims[0]) % dims[1],
+                v / (dims[0] * dims[1]),
+            ]
+        };
+        let got = empty_distance(|v| hair[v], dims);
+        let mut seen = [0usize; EMPTY_REACH as usize + 1];
+        for v in 0..n {
+            let p = at(v);
+            let want = (0..n)
+                .filter(|&u| hair[u])
+                .map(|u| {
+                    let q = at(u);
+                    (0..3).map(|k| p[k].abs_diff(q[k])).max().unwrap()
+                })
+                .min()
+                .map_or(EMPTY_REACH, |x| x.min(EMPTY_REACH as usize) as u8);
+            assert_eq!(got[v], want, "voxel {p:?}");
+            seen[want as usize] += 1;
+        }
+        // the grid has hair, voxels at every distance, and capped ones
+        assert!(seen.iter().all(|&c| c > 0), "{seen:?}");
     }
 }

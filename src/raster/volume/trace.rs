@@ -380,7 +380,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
                 }
             };
             let mut t = t_in;
-            while t < t_end {
+            'walk: while t < t_end {
                 let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
                     0
                 } else if t_next[1] <= t_next[2] {
@@ -396,6 +396,32 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
                 if cell != run_cell {
                     flush(run_cell, run);
                     (run_cell, run) = (cell, 0.0);
+                }
+                let reach = m.empty[v] as i32 - 1;
+                if reach > 0 {
+                    // no hair within `reach` voxels: on through them
+                    // without reading them (the same steps as below, where
+                    // they would add nothing)
+                    let (lo, hi) = (ijk.map(|x| x - reach), ijk.map(|x| x + reach));
+                    loop {
+                        let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
+                            0
+                        } else if t_next[1] <= t_next[2] {
+                            1
+                        } else {
+                            2
+                        };
+                        t = t_next[a].min(t_end);
+                        ijk[a] += step[a];
+                        t_next[a] += t_delta[a];
+                        if ijk[a] < 0 || ijk[a] >= dims[a] {
+                            break 'walk;
+                        }
+                        if !(t < t_end) || ijk[a] < lo[a] || ijk[a] > hi[a] {
+                            break;
+                        }
+                    }
+                    continue;
                 }
                 // the track length weighted by the voxel's fibers (none
                 // outside the voxels holding hair: their cell is MAX)
