@@ -86,13 +86,20 @@ def test_03_the_volume_adds_light_and_only_light():
 
 
 def test_04_calibrated_medium_transmits_as_the_strands():
-    """The medium's cross-section is scaled so that its mean transmittance
-    over 16384 rays from the hair equals that of the same rays traced
-    through the strands (bisection to 2^-40 relative)."""
-    _, st = hs.render(hs.Scene.from_dict(_small()), return_stats=True)
+    """Under the medium transport, the medium's cross-section is scaled so
+    that its mean transmittance over 16384 rays from the hair equals that
+    of the same rays traced through the strands (bisection to 2^-40
+    relative). The strands transport flies its photons between the strands
+    themselves and never reads the cross-section: it does not calibrate,
+    and says so (None)."""
+    sc = hs.Scene.from_dict(_small())
+    medium_transport = {"volume": {"photons": 65536, "resolution": 24, "transport": "medium"}}
+    _, st = hs.render(sc, multiple_scattering=medium_transport, return_stats=True)
     strands, medium, calibrated = st["volume_transmittance"]
     assert 0 < strands < 1 and 0 < medium < 1
     assert abs(calibrated - strands) < 1e-6
+    _, st = hs.render(sc, return_stats=True)
+    assert st["volume_voxels"] > 0 and st["volume_transmittance"] is None
 
 
 @pytest.mark.parametrize("settings, field", [

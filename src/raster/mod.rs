@@ -106,8 +106,9 @@ pub struct RenderStats {
     pub volume_voxels: usize,
     /// The mean transmittance of rays from the hair in all directions
     /// through the strands, through the medium, and through the medium
-    /// calibrated ([`volume::Calibration`]).
-    pub volume_transmittance: (f64, f64, f64),
+    /// calibrated ([`volume::Calibration`]); None without a solve, or under
+    /// the strands transport, which does not calibrate the medium.
+    pub volume_transmittance: Option<(f64, f64, f64)>,
     /// The fraction of the strands drawn ([`lod`]) and their number.
     pub lod_fraction: f32,
     pub strands_drawn: usize,
@@ -274,8 +275,7 @@ pub fn render_with_progress(
             stats.volume_reused = *reused;
             stats.volume_voxels = v.voxels();
             stats.volume_ms = if *reused { 0.0 } else { ms(tv) };
-            let c = v.calibration;
-            stats.volume_transmittance = (c.strands, c.medium, c.calibrated);
+            stats.volume_transmittance = v.calibration.map(|c| (c.strands, c.medium, c.calibrated));
         }
         solved.map(|s| s.0)
     } else {

@@ -109,8 +109,10 @@ pub struct VolumeRadiance {
     response: Arc<response::ResponseTable>,
     /// Seconds the solve took.
     pub solve_seconds: f64,
-    /// The medium's calibration against the strands.
-    pub calibration: Calibration,
+    /// The medium's calibration against the strands (None under the
+    /// strands transport, whose photons never read the medium's
+    /// cross-section: they fly between the strands themselves).
+    pub calibration: Option<Calibration>,
 }
 
 /// Bytes the solve of `scene` with `s` needs at most (the medium, the
@@ -161,16 +163,23 @@ impl VolumeRadiance {
                 built.as_ref()
             }
         };
-        let calibration = match grid {
-            Some(grid) => calibrate(&calibration_rays(
+        // the strands photons fly between (None: through the medium), and
+        // the groups their tallies keep apart
+        let strands = grid.filter(|_| settings.transport == VolumeTransport::Strands);
+        let groups = if strands.is_some() { trace::GROUPS } else { 1 };
+        let calibration = match (grid, strands) {
+            (_, Some(_)) => None,
+            (Some(grid), None) => Some(calibrate(&calibration_rays(
                 &medium,
                 input.segments,
                 grid,
                 CALIBRATION_RAYS,
-            )),
-            None => calibrate(&[]),
+            ))),
+            (None, None) => Some(calibrate(&[])),
         };
-        medium.scale(calibration.k as f32);
+        if let Some(c) = calibration {
+            medium.scale(c.k as f32);
+        }
         let bins = Bins {
             n: settings.bins.clamp(BINS.0, BINS.1),
         };
@@ -188,10 +197,6 @@ impl VolumeRadiance {
         let emitters: Vec<Emitter> = lights.iter().map(|l| Emitter::new(l, c, r)).collect();
         let total: f64 = emitters.iter().map(|e| e.power as f64).sum();
         let slots = medium.cells.cell_of.len();
-        // the strands photons fly between (None: through the medium), and
-        // the groups their tallies keep apart
-        let strands = grid.filter(|_| settings.transport == VolumeTransport::Strands);
-        let groups = if strands.is_some() { trace::GROUPS } else { 1 };
         let sums: Vec<AtomicU64> = (0..slots * groups * bins.count() * trace::WORDS)
             .map(|_| AtomicU64::new(0))
             .collect();
