@@ -187,7 +187,8 @@ pub fn bytes_estimate(scene: &Scene, resolution: usize) -> usize {
         .sum();
     let occupied = (pieces as usize).min(dense);
     let cells = dense.div_ceil(FINE * FINE * FINE);
-    dense * 8 + occupied * (32 + TANGENTS * 12 + 4) + cells * 24
+    // (slots 8 bytes a voxel, the empty distance 1 and its pass buffer 1)
+    dense * 10 + occupied * (32 + TANGENTS * 12 + 4) + cells * 24
 }
 
 /// Cells of a medium of `scene` at `resolution` (all of them: an upper
@@ -461,6 +462,7 @@ impl Medium {
     /// Bytes held.
     pub fn bytes(&self) -> usize {
         self.slots.len() * 8
+            + self.empty.len()
             + self.moments.len() * (32 + TANGENTS * 12 + 4)
             + self.cells.slot.len() * 4
             + self.cells.cell_of.len() * 20
