@@ -560,7 +560,7 @@ impl SegmentGrid {
         let mut t = t_enter;
         while t <= t_max {
             let b = [0, 1, 2].map(|k| c[k] as usize / BLOCK);
-            if self.empty_block[(b[2] * self.block_dims[1] + b[1]) * self.block_dims[0] + b[0]] {
+            if self.empty_block[self.cell_index(c) / BRICK] {
                 // an empty block: on to the cell where the ray leaves it
                 let mut a = 0;
                 let mut t_out = f32::INFINITY;

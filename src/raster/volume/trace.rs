@@ -320,6 +320,19 @@ pub struct Transport<'a> {
     pub strands: Option<&'a crate::raster::traced::SegmentGrid>,
 }
 
+/// The axis whose next voxel boundary the ray meets first (the least of
+/// `t_next`; ties to the lower axis).
+#[inline]
+fn next_axis(t_next: &[f32; 3]) -> usize {
+    if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
+        0
+    } else if t_next[1] <= t_next[2] {
+        1
+    } else {
+        2
+    }
+}
+
 /// Traces one photon.
 pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
     let (m, phase, spheres, tally) = (tr.medium, tr.phase, tr.spheres, tr.tally);
@@ -381,13 +394,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
             };
             let mut t = t_in;
             'walk: while t < t_end {
-                let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
-                    0
-                } else if t_next[1] <= t_next[2] {
-                    1
-                } else {
-                    2
-                };
+                let a = next_axis(&t_next);
                 let t1 = t_next[a].min(t_end);
                 let v =
                     (ijk[2] as usize * m.dims[1] + ijk[1] as usize) * m.dims[0] + ijk[0] as usize;
@@ -404,13 +411,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
                     // they would add nothing)
                     let (lo, hi) = (ijk.map(|x| x - reach), ijk.map(|x| x + reach));
                     loop {
-                        let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
-                            0
-                        } else if t_next[1] <= t_next[2] {
-                            1
-                        } else {
-                            2
-                        };
+                        let a = next_axis(&t_next);
                         t = t_next[a].min(t_end);
                         ijk[a] += step[a];
                         t_next[a] += t_delta[a];
