@@ -126,11 +126,12 @@ def test_04_accurate_against_both_truths(name):
     """The accurate preset against truths that do not depend on overlapping
     fibers (docs/separated.md): every channel's mean over the pixels that see
     hair or the head within 4.5% of Mitsuba's and of Cycles' (measured
-    worst: 3.4%, the wavy rim-lit head's red, whose multiple scattering
-    is 1.07 of the truth's, and 1.8%), relMSE against Mitsuba at most
-    4.5e-3 (measured 4.2e-4 to 3.76e-3, the photons the same in every run:
-    the margin covers other CPUs' rounding; the references' own noise is at
-    most 7.1e-4 between halves, a quarter of that for their mean)."""
+    worst: 4.3% over Mitsuba, the wavy rim-lit head's red, whose multiple
+    scattering is 1.07 of the truth's, and 2.6% over Cycles), relMSE
+    against Mitsuba at most 4.5e-3 (measured 3.1e-4 to 3.2e-3, the photons
+    the same in every run: the margin covers other CPUs' rounding; the
+    references' own noise is at most 7.1e-4 between halves, a quarter of
+    that for their mean)."""
     mit, cyc, k = both_truths(name)
     img = hs.render(preset_scene(SEPARATED / f"{name}.json"), quality="accurate", progress=False)
     over_mit, over_cyc = img[k].mean(0) / mit[k].mean(0), img[k].mean(0) / cyc[k].mean(0)
