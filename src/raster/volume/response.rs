@@ -199,7 +199,7 @@ const ALBEDO_NODES: usize = 128;
 /// above 0.93) the lobes close in on the pole, narrower in `sin θl` than
 /// the table's nodes, whose integral there was off by up to 50%; in θl
 /// they stay β wide. Against a 400 × 800 equal-area sum over the sphere:
-/// within 0.1% at every view (volume test 4).
+/// within 0.2% at every view (volume tests 4 and 5).
 fn albedo_at(f: &(impl Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync), sv: f32) -> [f32; 3] {
     use std::f64::consts::{FRAC_PI_2, PI};
     let (x, w) = crate::math::gauss_legendre(ALBEDO_NODES);
