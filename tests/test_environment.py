@@ -49,13 +49,13 @@ def test_01_lone_fiber_scatters_its_albedo(model, tilt):
     """A thin fiber alone in a constant environment of radiance 1 shows its
     far field's albedo towards the camera. Quadrature of 512 directions
     (converged: 128 and 512 agree within 0.5 % on these fibers); the fiber
-    counts itself in the density grid only by its share left over from
-    `at_fiber` (radius 0.05 voxel: about 2r/voxel = 0.1 fibers along its
-    own length for light nearly parallel to it). DEonHair with UE's
-    16-offset estimate on both sides (the same function). Measured at the
-    three tilts: ChiangHair 7e-6, 1.1e-3, 5.3e-3; DEonHair 2.8e-4, 3.3e-3,
-    1.8e-2 (short: its wider lobes take more light from directions nearly
-    along the fiber, where the leftover self-count acts); gate 3 %."""
+    counts itself in the environment's count grid only by what `at_fiber`
+    leaves of its own share (radius 0.1 voxel: at most 0.6 r/voxel = 0.06
+    fibers, density test 5). DEonHair with UE's 16-offset estimate on both
+    sides (the same function). Measured at the three tilts: ChiangHair
+    1.1e-4, 6.1e-4, 2.3e-3; DEonHair 3.9e-4, 2.4e-3, 1.5e-2 (short: its
+    wider lobes take more light from directions nearly along the fiber,
+    where the leftover self-count acts); gate 3 %."""
     t = np.array([0.0, math.cos(tilt), math.sin(tilt)])
     mat = {"model": "chiang", **MAT} if model == "chiang" else {"model": "deon", "base_color": [0.4, 0.3, 0.2], "roughness": 0.4, "h_samples": 16}
     d = {

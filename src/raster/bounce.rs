@@ -187,7 +187,7 @@ impl SphereBounce {
             let sin = s.radius / d;
             // the cone's share of the half-space towards the sphere
             let share = 1.0 - (1.0 - sin * sin).max(0.0).sqrt();
-            let n = s.count.at_fiber(p, r, t, -m).n;
+            let n = s.count.at_fiber(p, r).n;
             out += s.lookup(m)
                 * (-(Vec3::ONE - a_f) * n).exp()
                 * half_space_response(far, dual, t, v, -m)

@@ -70,7 +70,7 @@ impl Lighting {
                 scene,
                 env,
                 opts.environment_directions,
-                opts.density_resolution,
+                super::env_light::grid_resolution(opts.density_resolution, methods.dual),
                 methods.counts_behind,
             )),
             _ => None,
@@ -182,6 +182,7 @@ fn key(scene: &Scene, geometry: u64, opts: &RenderOptions, m: &Methods) -> u64 {
         m.counts_behind,
         m.traced,
         m.environment_as_lights,
+        m.dual,
     ] {
         h.word(flag as u64);
     }

@@ -99,9 +99,12 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
         items.push(("density grid", voxels * (28 * 9 + per_light * shadowed)));
     }
     if m.environment_as_lights {
-        // The environment as lights: a grid at a quarter resolution, the
-        // counts per voxel for each direction.
-        let voxels = density_voxels(scene, (opts.density_resolution / 4).max(16));
+        // The environment as lights: a coarser grid, the counts per voxel
+        // for each direction.
+        let voxels = density_voxels(
+            scene,
+            super::env_light::grid_resolution(opts.density_resolution, m.dual),
+        );
         items.push((
             "environment fiber counts",
             voxels * (28 * 9 + per_light * opts.environment_directions as u64),

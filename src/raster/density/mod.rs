@@ -514,34 +514,35 @@ impl FiberCount {
         self.voxel
     }
 
-    /// [`Self::at`] at a point of a fiber of radius `r` and unit tangent
-    /// `t`, for the light towards unit `d`, with the fiber's own share left
-    /// out: the grid holds every fiber's cross-section, this one's too, and
-    /// the count at a point holds on average half a voxel of its own voxel,
-    /// about `r·|t × d| / voxel` of it the fiber itself (its projected
-    /// width over the voxel's). Without this a lone fiber of radius 0.5
-    /// voxel received 0.40 of a constant environment.
+    /// [`Self::at`] at a point of a fiber of radius `r`, with the fiber's
+    /// own share left out: the grid holds every fiber's cross-section, this
+    /// one's too. A ray leaving the fiber's axis along `d` crosses
+    /// `2r|t × d| / voxel²` of it per unit length over about
+    /// `voxel / (2|t × d|)` (the splat is a voxel wide), so about
+    /// `r / voxel` whatever the angle (density test 5: 0.50-1.25 of it).
+    /// Without this a lone fiber of radius 0.5 voxel received 0.40 of a
+    /// constant environment.
     #[inline]
-    pub fn at_fiber(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> LightPath {
+    pub fn at_fiber(&self, p: Vec3, r: f32) -> LightPath {
         let path = self.at(p);
         LightPath {
-            n: (path.n - self.own_share(r, t, d)).max(0.0),
+            n: (path.n - self.own_share(r)).max(0.0),
             ..path
         }
     }
 
-    /// The fiber's own share of the count: its projected width over the
-    /// voxel's (see [`Self::at_fiber`]).
+    /// The fiber's own share of the count: its radius over the voxel
+    /// (see [`Self::at_fiber`]).
     #[inline]
-    fn own_share(&self, r: f32, t: Vec3, d: Vec3) -> f32 {
-        r * t.cross(d).length() / self.voxel
+    fn own_share(&self, r: f32) -> f32 {
+        r / self.voxel
     }
 
     /// [`Self::at_fiber`]'s fiber count for the light's unscattered part:
     /// read [`UNSCATTERED_LOOKAHEAD`] voxels towards the light `d`.
     #[inline]
-    pub fn unscattered_at(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> f32 {
-        self.at_fiber(p + d * (UNSCATTERED_LOOKAHEAD * self.voxel), r, t, d)
+    pub fn unscattered_at(&self, p: Vec3, r: f32, d: Vec3) -> f32 {
+        self.at_fiber(p + d * (UNSCATTERED_LOOKAHEAD * self.voxel), r)
             .n
     }
 
@@ -559,7 +560,7 @@ impl FiberCount {
     /// [`Self::at_fiber`] with the count away from the light there (its
     /// own share left out too) when this count holds it, in one pass.
     #[inline]
-    pub fn at_fiber_behind(&self, p: Vec3, r: f32, t: Vec3, d: Vec3) -> LightPath {
+    pub fn at_fiber_behind(&self, p: Vec3, r: f32) -> LightPath {
         let has = !self.behind.is_empty();
         let (mut n, mut clear, mut m) = (0.0, 0.0, 0.0);
         let inside = self.trilinear(p, |v, w| {
@@ -569,7 +570,7 @@ impl FiberCount {
                 m += w * self.behind[v];
             }
         });
-        let own = self.own_share(r, t, d);
+        let own = self.own_share(r);
         LightPath {
             n: (n - own).max(0.0),
             clear: clear + (1.0 - inside),

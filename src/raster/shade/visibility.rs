@@ -95,7 +95,7 @@ impl Shader<'_> {
                         behind: c.has_behind().then_some(0.0),
                         ..LightPath::OPEN
                     },
-                    (true, Some(c), _) => c.at_fiber_behind(p, self.lookup_radius(&fiber), t, dir),
+                    (true, Some(c), _) => c.at_fiber_behind(p, self.lookup_radius(&fiber)),
                     _ => LightPath::OPEN,
                 };
                 Some(Incident {
@@ -110,13 +110,13 @@ impl Shader<'_> {
                 let (dir, irradiance) = env.lights[k].incident(p);
                 // (the way's `clear` is the one `env.clear` reads, in one pass)
                 let (path, clear) = if dual {
-                    let path = env.path(k, p, self.lookup_radius(&fiber), t, dir);
+                    let path = env.path(k, p, self.lookup_radius(&fiber));
                     (path, path.clear)
                 } else {
                     (LightPath::OPEN, env.clear(k, p))
                 };
-                let unscattered = clear
-                    * (-env.unscattered_count(k, p, self.lookup_radius(&fiber), t, dir)).exp();
+                let unscattered =
+                    clear * (-env.unscattered_count(k, p, self.lookup_radius(&fiber), dir)).exp();
                 Some(Incident {
                     dir,
                     irradiance,
@@ -156,7 +156,7 @@ impl Shader<'_> {
         match self.lit.counts.get(li).and_then(Option::as_ref) {
             Some(c) if vis > 0.0 && self.count_shadows => {
                 let l = self.scene.lights[li].incident(p).0;
-                vis * (-c.unscattered_at(p, self.lookup_radius(&fiber), t, l)).exp()
+                vis * (-c.unscattered_at(p, self.lookup_radius(&fiber), l)).exp()
             }
             _ => vis,
         }
