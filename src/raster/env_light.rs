@@ -8,8 +8,8 @@
 //! a directional light of irradiance `L(ω_k)·4π/K` (clamped at 0, as the
 //! background is). What reaches a fiber from direction `ω_k` is what the
 //! fibers on the way let through: the fiber count `n` towards `ω_k` from a
-//! density grid coarser than the render's ([`grid_resolution`]), and `clear`, the part of the way free of opaque
-//! geometry (the head). Without dual scattering a fiber receives
+//! density grid coarser than the render's ([`grid_resolution`]), and
+//! `clear`, the part of the way free of opaque geometry (the head). Without dual scattering a fiber receives
 //! `clear·e^{−n}` of each direction; with it, the dual-scattering terms of
 //! [`crate::fiber::dual`] as for a light.
 //!
@@ -54,14 +54,15 @@ pub struct EnvLights {
 /// where the counts also carry the environment's scattered light (`dual`
 /// scattering, whose terms are smooth); half of it otherwise (the volume's
 /// multiple scattering, or none), where they carry only the unscattered
-/// light, whose shadows are sharp. Measured (`accurate`, default 128: 32 -> 64 voxels;
-/// relMSE against path tracing): curly_blond_env 4.29e-3 -> 3.44e-3,
-/// blond_env 2.50e-3 -> 2.32e-3, wavy_black_env 2.87e-3 -> 2.73e-3,
-/// curly_auburn_point 2.06e-3 -> 1.90e-3; at the full 128 curly_blond_env
-/// reaches 3.14e-3 for 8 times the memory again. The coarse grid's
-/// `e^{−n̄}` of a cell's mean count is below the cell's mean `e^{−n}`
-/// (white fibers under a white environment, max_depth 2: 0.174 of it at 32
-/// voxels, 0.178 at 64, 0.183 at 128; Mitsuba 0.1865).
+/// light, whose shadows are sharp. Measured (`accurate`, the default 128:
+/// 32 -> 64 voxels; relMSE against path tracing): curly_blond_env
+/// 4.29e-3 -> 3.44e-3, blond_env 2.50e-3 -> 2.32e-3, wavy_black_env
+/// 2.87e-3 -> 2.73e-3, curly_auburn_point 2.06e-3 -> 1.90e-3; at the full
+/// 128 curly_blond_env reaches 3.14e-3 for 8 times the memory again. The
+/// coarse grid's `e^{−n̄}` of a cell's mean count is below the cell's mean
+/// `e^{−n}` (white fibers under a white environment, max_depth 2: 0.174 of
+/// the environment at 32 voxels, 0.178 at 64, 0.183 at 128; Mitsuba
+/// 0.1865).
 pub fn grid_resolution(density_resolution: usize, dual: bool) -> usize {
     (density_resolution / if dual { 4 } else { 2 }).max(16)
 }
