@@ -47,7 +47,6 @@ import held_out_heads  # noqa: E402
 
 CHIANG = ("auburn_key", "blond_back", "black_top", "brown_side", "blond_env", "ginger_two")
 KARIS = ("demo_head", "card_head")
-DENSITY_RESOLUTION = 128  # the renderer's default `density_resolution`
 W, H = 320, 180
 
 
@@ -127,7 +126,7 @@ def accuracy(tmp: str, rows: list, md: list) -> None:
         # no grid, and the option is refused)
         try:
             dual_none = hs.render(sc, W, H, quality="accurate", multiple_scattering="none",
-                                  density_resolution=DENSITY_RESOLUTION // 2)
+                                  density_resolution=sc.options(quality="accurate")["density_resolution"] // 2)
         except hs.SceneError:
             dual_none = base
         for label, kw in (("accurate, dual", dict(quality="accurate", multiple_scattering="dual")),

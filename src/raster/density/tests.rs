@@ -210,7 +210,7 @@ fn t05_a_lone_fiber_counts_little_of_itself() {
             Vec3::X,
         ];
         scene.strands.offsets = vec![0, 2, 4];
-        let voxel = DensityGrid::new(&scene, 64).unwrap().voxel;
+        let (_, voxel, _) = grid_frame(&scene, 64).unwrap();
         let r = 0.1 * voxel;
         scene.strands.radii = vec![r; 4];
         let grid = DensityGrid::new(&scene, 64).unwrap();
