@@ -4,7 +4,11 @@
 #              do not overlap (scripts/separated_heads.py);
 #   held_out   references of the held-out heads (scripts/held_out_heads.py);
 #   scaling    thread scaling (scripts/thread_scaling.py);
-#   equal      Mitsuba cuda_ad_rgb at each preset's error (scripts/mitsuba_equal_error.py).
+#   equal      Mitsuba cuda_ad_rgb at each preset's error (scripts/mitsuba_equal_error.py);
+#   before     the frame at 16 threads with an earlier wheel (.dev/before.whl, a `maturin build` of an
+#              earlier commit) and with this checkout's, one after the other (docs/scaling_before*.md and
+#              docs/scaling_after*.md);
+#   refs       llvm_ad_rgb references of the held-out heads REF_HEADS at 2 x REF_SPP spp, seeds REF_SEEDS.
 # STEPS picks them (default: separated scaling equal).
 #
 # Before, here: ../shared/tools/gpu_site.sh (packs Mitsuba, drjit and this checkout's wheel into .dev/)
@@ -54,6 +58,17 @@ held_out() {  # held_out SPP SECONDS HEADS
       equal)
         timeout ${EQUAL_S:-180} $py scripts/mitsuba_equal_error.py --variant "$variant" --max-spp ${MAX_SPP:-1024} \
           --demo-truth .dev/demo_head_640.exr ;;
+      before)
+        mkdir -p /tmp/before && (cd /tmp/before && unzip -q -o "$OLDPWD/.dev/before.whl")
+        for k in ${BEFORE_RUNS:-1}; do
+          PYTHONPATH=/tmp/before:${PYTHONPATH:-} timeout ${BEFORE_S:-60} $py scripts/thread_scaling.py --threads 16 \
+            --repeats ${BEFORE_REPEATS:-2} --name scaling_before$k
+          timeout ${BEFORE_S:-60} $py scripts/thread_scaling.py --threads 16 --repeats ${BEFORE_REPEATS:-2} --name scaling_after$k
+        done ;;
+      refs)
+        timeout ${REFS_S:-240} $py scripts/held_out_heads.py /tmp/held --spp ${REF_SPP:-4096} --seeds ${REF_SEEDS:-23,24} \
+          --variant llvm_ad_rgb --heads ${REF_HEADS:-curly_blond_env}
+        cp /tmp/held/*.exr tests/data/held_out/ 2>/dev/null ;;
     esac
     pack
   done

@@ -1,7 +1,7 @@
 """Heads of other styles and lights than the generator's straight hair, with
 path-traced references: held-out checks of the renderer's presets.
 
-    .venv/bin/python scripts/held_out_heads.py OUT_DIR [--spp 256] [--depth2-spp 0] [--variant V] [--heads a,b]
+    .venv/bin/python scripts/held_out_heads.py OUT_DIR [--spp 256] [--depth2-spp 0] [--variant V] [--heads a,b] [--seeds 1,2]
 
 Each head starts from the procedural `head` generator's strands and is
 reshaped in numpy (deterministic): `wavy_blond_rim` (waves across the
@@ -14,7 +14,7 @@ environment), `clumped_blond_key` (clumps, light blond, one key light),
 `straight_brown_back` (the generator's straight hair, brown, backlight and
 a dim environment). Writes OUT_DIR/NAME.txt (strands, `x y z r`), NAME.json (the
 scene) and, unless --no-reference, NAME.exr: Mitsuba `path` (max_depth 64),
-the mean of two halves of --spp samples each (seeds 1 and 2), whose relMSE
+the mean of two halves of --spp samples each (--seeds, 1 and 2), whose relMSE
 against each other is printed (the reference's own noise);
 --depth2-spp also writes NAME_depth2.exr, the same at max_depth 2.
 """
@@ -155,7 +155,11 @@ def main() -> int:
                     help="also write NAME_depth2.exr (max_depth 2: single scattering), halves of this many spp")
     ap.add_argument("--variant", help="Mitsuba variant (default: hairshade.mitsuba.default_variant())")
     ap.add_argument("--no-reference", action="store_true")
+    ap.add_argument("--seeds", default="1,2", help="the two halves' seeds")
     a = ap.parse_args()
+    seeds = tuple(int(x) for x in a.seeds.split(","))
+    if len(seeds) != 2 or seeds[0] == seeds[1]:
+        ap.error("--seeds: two different integers, such as 1,2")
     os.makedirs(a.out, exist_ok=True)
     for name in a.heads.split(","):
         if name not in HEADS:
@@ -167,7 +171,7 @@ def main() -> int:
         for depth, spp, suffix in ((64, a.spp, ""), (2, a.depth2_spp, "_depth2")):
             if spp >= 1:
                 print(render_reference(scene, os.path.join(a.out, f"{name}{suffix}.exr"), spp, depth,
-                                       variant=a.variant), flush=True)
+                                       seeds=seeds, variant=a.variant), flush=True)
     return 0
 
 

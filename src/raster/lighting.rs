@@ -1,7 +1,8 @@
 //! What a render builds from the geometry and the lights, whatever the
 //! camera: the fiber counts towards each light, the environment as
-//! directional lights with theirs, and the strands' grid for traced
-//! shadows. A camera move re-renders with those of the previous frame
+//! directional lights with theirs, the strands' grid for traced
+//! shadows, and the fiber counts towards each opaque sphere's centre
+//! (the light it reflects into the hair, [`super::bounce`]). A camera move re-renders with those of the previous frame
 //! (with `reuse_shadow_maps`, as the shadow maps are): identical either
 //! way, since building them is deterministic.
 
@@ -12,6 +13,7 @@ use super::scene::{Light, RenderOptions, Scene};
 use super::setup::WorldSegment;
 use super::shadow::WordHash;
 use super::traced::SegmentGrid;
+use glam::Vec3;
 use std::sync::{Arc, Mutex, OnceLock};
 
 /// Bytes the cache may hold: one entry (the last lighting), if it fits.
@@ -27,6 +29,10 @@ pub struct Lighting {
     /// The environment as directional lights (ChiangHair, DEonHair, and
     /// KarisHair under dual or volume scattering).
     pub env_lights: Option<EnvLights>,
+    /// Per scene sphere, the fiber count towards its centre (dual
+    /// scattering's sphere bounce; None for a sphere of no size, and all
+    /// None without the bounce).
+    pub sphere_counts: Vec<Option<FiberCount>>,
 }
 
 impl Lighting {
@@ -37,6 +43,7 @@ impl Lighting {
             counts: (0..lights).map(|_| None).collect(),
             traced: None,
             env_lights: None,
+            sphere_counts: Vec::new(),
         }
     }
 
@@ -79,6 +86,7 @@ impl Lighting {
             counts: fiber_counts(scene, opts, methods),
             traced,
             env_lights,
+            sphere_counts: sphere_counts(scene, opts, methods),
         }
     }
 
@@ -94,7 +102,10 @@ impl Lighting {
         segments: &[WorldSegment],
         geometry: u64,
     ) -> (Arc<Self>, bool) {
-        let needed = methods.fiber_counts || methods.traced || methods.environment_as_lights;
+        let needed = methods.fiber_counts
+            || methods.traced
+            || methods.environment_as_lights
+            || bounces(scene, opts, methods);
         if !opts.reuse_shadow_maps || !needed {
             return (Arc::new(Self::build(scene, opts, methods, segments)), false);
         }
@@ -120,8 +131,50 @@ impl Lighting {
             .flat_map(|e| &e.counts)
             .map(FiberCount::bytes)
             .sum();
-        counts + env + self.traced.as_ref().map_or(0, SegmentGrid::bytes)
+        let spheres: usize = self
+            .sphere_counts
+            .iter()
+            .flatten()
+            .map(FiberCount::bytes)
+            .sum();
+        counts + env + spheres + self.traced.as_ref().map_or(0, SegmentGrid::bytes)
     }
+}
+
+/// Whether the spheres reflect light into the hair (dual scattering's
+/// sphere bounce, a scene with spheres).
+fn bounces(scene: &Scene, opts: &RenderOptions, methods: &Methods) -> bool {
+    opts.sphere_bounce && methods.dual && !scene.spheres.is_empty()
+}
+
+/// Per sphere, the fiber count towards its centre where the spheres
+/// reflect light into the hair ([`bounces`]; one density grid at a
+/// quarter of the resolution for all of them: the light from the head
+/// varies slowly), else nothing.
+fn sphere_counts(
+    scene: &Scene,
+    opts: &RenderOptions,
+    methods: &Methods,
+) -> Vec<Option<FiberCount>> {
+    if !bounces(scene, opts, methods) {
+        return Vec::new();
+    }
+    let Some(grid) = DensityGrid::new(scene, (opts.density_resolution / 4).max(16)) else {
+        return Vec::new();
+    };
+    scene
+        .spheres
+        .iter()
+        .map(|s| {
+            (s.radius > 0.0).then(|| {
+                grid.fiber_count(&Light::Point {
+                    position: s.center,
+                    intensity: Vec3::ZERO,
+                    shadows: true,
+                })
+            })
+        })
+        .collect()
 }
 
 /// Per light, its fiber count when the methods need it and the light casts
@@ -183,6 +236,7 @@ fn key(scene: &Scene, geometry: u64, opts: &RenderOptions, m: &Methods) -> u64 {
         m.traced,
         m.environment_as_lights,
         m.dual,
+        bounces(scene, opts, m),
     ] {
         h.word(flag as u64);
     }

@@ -78,7 +78,7 @@ pub struct RenderStats {
     pub fragments: u64,
     pub non_finite_pixels: u64,
     /// Segments dropped behind an opaque sphere before binning
-    /// ([`cull::behind_spheres`]), and segment or card-triangle visits
+    /// ([`cull::visible_segments`]), and segment or card-triangle visits
     /// skipped because the tile's opaque surface is in front of them
     /// everywhere.
     pub culled_behind_opaque: u64,
@@ -292,14 +292,18 @@ pub fn render_with_progress(
     let grid = TileGrid::new(view.width, view.height);
     let mut segs = setup::project_segments(&scene.strands, &view);
     stats.segments = segs.len();
-    if opts.frustum_culling {
-        segs = cull::frustum(segs, grid);
-    }
-    if opts.opaque_culling {
-        let dropped;
-        (segs, dropped) = cull::behind_spheres(segs, &scene.spheres, &view);
-        stats.culled_behind_opaque += dropped;
-    }
+    let dropped;
+    (segs, dropped) = cull::visible_segments(
+        segs,
+        opts.frustum_culling.then_some(grid),
+        if opts.opaque_culling {
+            &scene.spheres
+        } else {
+            &[]
+        },
+        &view,
+    );
+    stats.culled_behind_opaque += dropped;
     if opts.vertex_shading {
         let tv = std::time::Instant::now();
         let used = opts
@@ -343,13 +347,15 @@ pub fn render_with_progress(
     // order: what each tile's own sort gave).
     let seg_bins = if opts.draws_nearest_first() {
         // (a view depth is positive and finite: its bits order as it does)
-        let mut order: Vec<u64> = segs
-            .iter()
-            .enumerate()
-            .map(|(i, s)| (s.za.min(s.zb).to_bits() as u64) << 32 | i as u64)
-            .collect();
-        pool().install(|| order.par_sort_unstable());
-        let ids: Vec<u32> = order.iter().map(|&k| k as u32).collect();
+        let ids: Vec<u32> = pool().install(|| {
+            let mut order: Vec<u64> = segs
+                .par_iter()
+                .enumerate()
+                .map(|(i, s)| (s.za.min(s.zb).to_bits() as u64) << 32 | i as u64)
+                .collect();
+            order.par_sort_unstable();
+            order.par_iter().map(|&k| k as u32).collect()
+        });
         bin_in_order(&seg_ranges, &ids, grid)
     } else {
         bin_to_tiles(&seg_ranges, grid)

@@ -239,8 +239,8 @@ impl<'a> Shader<'a> {
                 self.scene,
                 &self.lit.counts,
                 self.lit.env_lights.as_ref(),
+                &self.lit.sphere_counts,
                 dual,
-                opts.density_resolution,
             );
         }
         self

@@ -53,6 +53,33 @@ impl WordHash {
         }
         self.word(n);
     }
+    /// The `n` items `item(i)` (each a few floats): fixed runs of them
+    /// hashed in parallel, the runs' hashes then in order (the same value
+    /// at every thread count; a head's 425 000 vertices took 3 ms a frame
+    /// on one thread).
+    pub fn items<const K: usize>(&mut self, n: usize, item: impl Fn(usize) -> [f32; K] + Sync) {
+        use rayon::prelude::*;
+        const RUN: usize = 1 << 14;
+        let run = |r: usize| {
+            let mut h = WordHash::default();
+            for i in r * RUN..((r + 1) * RUN).min(n) {
+                for x in item(i) {
+                    h.word(x.to_bits() as u64);
+                }
+            }
+            h.0
+        };
+        let runs: Vec<u64> = if n > RUN {
+            crate::threads::pool()
+                .install(|| (0..n.div_ceil(RUN)).into_par_iter().map(run).collect())
+        } else {
+            (0..n.div_ceil(RUN)).map(run).collect()
+        };
+        for r in runs {
+            self.word(r);
+        }
+        self.word(n as u64);
+    }
     pub fn finish(&self) -> u64 {
         self.0 ^ (self.0 >> 31)
     }
@@ -63,9 +90,9 @@ impl WordHash {
 pub fn geometry_hash(scene: &Scene) -> u64 {
     let mut h = WordHash::default();
     for st in [&scene.strands, &scene.cards.fibers] {
-        h.floats(st.points.iter().flat_map(|p| p.to_array()));
-        h.floats(st.radii.iter().copied());
-        h.floats(st.offsets.iter().map(|&o| f32::from_bits(o)));
+        h.items(st.points.len(), |i| st.points[i].to_array());
+        h.items(st.radii.len(), |i| [st.radii[i]]);
+        h.items(st.offsets.len(), |i| [f32::from_bits(st.offsets[i])]);
     }
     let c = &scene.cards;
     h.floats(c.corners.iter().flat_map(|p| p.to_array()));
