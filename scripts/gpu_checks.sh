@@ -8,7 +8,8 @@
 #   before     the frame at 16 threads with an earlier wheel (.dev/before.whl, a `maturin build` of an
 #              earlier commit) and with this checkout's, one after the other (docs/scaling_before*.md and
 #              docs/scaling_after*.md);
-#   refs       llvm_ad_rgb references of the held-out heads REF_HEADS at 2 x REF_SPP spp, seeds REF_SEEDS.
+#   refs       llvm_ad_rgb references of the held-out heads REF_HEADS at 2 x REF_SPP spp, seeds REF_SEEDS,
+#              the strands traced as REF_CURVE (bspline, as the cached NAME.exr; polyline: NAME_polyline.exr).
 # STEPS picks them (default: separated scaling equal).
 #
 # Before, here: ../shared/tools/gpu_site.sh (packs Mitsuba, drjit and this checkout's wheel into .dev/)
@@ -59,7 +60,7 @@ held_out() {  # held_out SPP SECONDS HEADS
         timeout ${EQUAL_S:-180} $py scripts/mitsuba_equal_error.py --variant "$variant" --max-spp ${MAX_SPP:-1024} \
           --demo-truth .dev/demo_head_640.exr ;;
       before)
-        mkdir -p /tmp/before && (cd /tmp/before && unzip -q -o "$OLDPWD/.dev/before.whl")
+        mkdir -p /tmp/before && $py -m zipfile -e .dev/before.whl /tmp/before
         for k in ${BEFORE_RUNS:-1}; do
           PYTHONPATH=/tmp/before:${PYTHONPATH:-} timeout ${BEFORE_S:-60} $py scripts/thread_scaling.py --threads 16 \
             --repeats ${BEFORE_REPEATS:-2} --name scaling_before$k
@@ -67,7 +68,7 @@ held_out() {  # held_out SPP SECONDS HEADS
         done ;;
       refs)
         timeout ${REFS_S:-240} $py scripts/held_out_heads.py /tmp/held --spp ${REF_SPP:-4096} --seeds ${REF_SEEDS:-23,24} \
-          --variant llvm_ad_rgb --heads ${REF_HEADS:-curly_blond_env}
+          --variant llvm_ad_rgb --heads ${REF_HEADS:-curly_blond_env} --curve ${REF_CURVE:-bspline}
         cp /tmp/held/*.exr tests/data/held_out/ 2>/dev/null ;;
     esac
     pack

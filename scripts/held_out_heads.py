@@ -2,6 +2,7 @@
 path-traced references: held-out checks of the renderer's presets.
 
     .venv/bin/python scripts/held_out_heads.py OUT_DIR [--spp 256] [--depth2-spp 0] [--variant V] [--heads a,b] [--seeds 1,2]
+        [--curve bspline]
 
 Each head starts from the procedural `head` generator's strands and is
 reshaped in numpy (deterministic): `wavy_blond_rim` (waves across the
@@ -17,6 +18,12 @@ scene) and, unless --no-reference, NAME.exr: Mitsuba `path` (max_depth 64),
 the mean of two halves of --spp samples each (--seeds, 1 and 2), whose relMSE
 against each other is printed (the reference's own noise);
 --depth2-spp also writes NAME_depth2.exr, the same at max_depth 2.
+
+--curve is the geometry Mitsuba traces: "bspline" (the default, what the
+cached NAME.exr references trace), the uniform B-spline of each strand's
+vertices with its ends tripled; "polyline", the straight segments between
+them that the rasterizer draws by default (the scenes' own `hair.curve`),
+written as NAME_polyline.exr.
 """
 
 from __future__ import annotations
@@ -130,7 +137,7 @@ def write_head(out: str, name: str) -> str:
 
 
 def render_reference(scene: hs.Scene, path: str, spp: int, depth: int, seeds=(1, 2),
-                     variant: str | None = None) -> str:
+                     variant: str | None = None, curve: str | None = None) -> str:
     """Mitsuba `path` at max_depth DEPTH, two halves of SPP samples with the
     given seeds; writes their mean to PATH and returns a line saying what it
     took and the halves' relMSE (the reference's own noise) and means."""
@@ -138,7 +145,7 @@ def render_reference(scene: hs.Scene, path: str, spp: int, depth: int, seeds=(1,
 
     t = time.perf_counter()
     halves = [hm.render(scene, spp=spp, integrator="path", max_depth=depth, seed=s, passes=-(-spp // 1024),
-                        progress=False, variant=variant) for s in seeds]
+                        progress=False, variant=variant, curve=curve) for s in seeds]
     hs.write_exr(path, (0.5 * (halves[0] + halves[1])).astype(np.float32))
     return (f"{os.path.splitext(os.path.basename(path))[0]}: {variant or hm.default_variant()}, 2 x {spp} spp "
             f"(seeds {seeds[0]}, {seeds[1]}), max_depth {depth}: halves relMSE {hs.rel_mse(halves[0], halves[1]):.2e}, "
@@ -156,6 +163,8 @@ def main() -> int:
     ap.add_argument("--variant", help="Mitsuba variant (default: hairshade.mitsuba.default_variant())")
     ap.add_argument("--no-reference", action="store_true")
     ap.add_argument("--seeds", default="1,2", help="the two halves' seeds")
+    ap.add_argument("--curve", default="bspline", choices=("bspline", "polyline"),
+                    help="the strands' geometry in Mitsuba (polyline: written as NAME_polyline.exr)")
     a = ap.parse_args()
     seeds = tuple(int(x) for x in a.seeds.split(","))
     if len(seeds) != 2 or seeds[0] == seeds[1]:
@@ -168,10 +177,11 @@ def main() -> int:
         if a.no_reference:
             continue
         scene = hs.Scene.load(path)
+        tag = "_polyline" if a.curve == "polyline" else ""
         for depth, spp, suffix in ((64, a.spp, ""), (2, a.depth2_spp, "_depth2")):
             if spp >= 1:
-                print(render_reference(scene, os.path.join(a.out, f"{name}{suffix}.exr"), spp, depth,
-                                       seeds=seeds, variant=a.variant), flush=True)
+                print(render_reference(scene, os.path.join(a.out, f"{name}{suffix}{tag}.exr"), spp, depth,
+                                       seeds=seeds, variant=a.variant, curve=a.curve), flush=True)
     return 0
 
 
