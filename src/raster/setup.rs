@@ -606,3 +606,51 @@ pub fn project_card_tris(scene: &Scene, view: &View) -> Vec<CardTri> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{hair_box, robust_box, Strands};
+    use glam::Vec3;
+
+    /// 1. The hair box, read in place and in parallel: the same on one
+    ///    thread and on all; across two strand sets the box of their
+    ///    vertices together; a non-finite vertex left out (the box of the
+    ///    rest, exactly); a far outlier left out; each vertex grown by
+    ///    its radius.
+    #[test]
+    fn t01_hair_box() {
+        // 200 000 vertices on a 2 x 1 x 0.5 block (more than the 65 536
+        // the statistics sample), radius 0.01
+        let n = 200_000;
+        let p = |i: usize| {
+            let f = i as f32 / n as f32;
+            Vec3::new(2.0 * f, (97.0 * f).fract(), 0.5 * (31.0 * f).fract())
+        };
+        let points: Vec<Vec3> = (0..n).map(p).collect();
+        let set = |pts: &[Vec3]| Strands {
+            points: pts.to_vec(),
+            radii: vec![0.01; pts.len()],
+            offsets: vec![0, pts.len() as u32],
+        };
+        let (a, b) = (set(&points[..n / 3]), set(&points[n / 3..]));
+        let whole = hair_box(&[&set(&points)]).unwrap();
+        assert_eq!(hair_box(&[&a, &b]).unwrap(), whole);
+        crate::threads::set_single_threaded(true);
+        let one = hair_box(&[&a, &b]).unwrap();
+        crate::threads::set_single_threaded(false);
+        assert_eq!(one, whole);
+        let (lo, hi) = points
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &q| {
+                (l.min(q), h.max(q))
+            });
+        assert_eq!(whole, (lo - Vec3::splat(0.01), hi + Vec3::splat(0.01)));
+        let with = |extra: Vec3| {
+            let mut v: Vec<(Vec3, f32)> = points.iter().map(|&q| (q, 0.01)).collect();
+            v.insert(n / 2, (extra, 0.01));
+            robust_box(v).unwrap()
+        };
+        assert_eq!(with(Vec3::new(f32::NAN, 0.0, 0.0)), whole);
+        assert_eq!(with(Vec3::splat(1e5)), whole);
+    }
+}

@@ -177,3 +177,34 @@ impl ShadowMap {
 pub fn clear_cache() {
     cache().lock().unwrap_or_else(|e| e.into_inner()).clear();
 }
+
+#[cfg(test)]
+mod tests {
+    use super::WordHash;
+
+    /// 1. `items` hashes runs of items in parallel: the value is the same
+    ///    on one thread and on all, changes with any one float (the last
+    ///    run's too), and with the count.
+    #[test]
+    fn t01_items_independent_of_threads() {
+        let n = 3 * (1 << 14) + 17;
+        let x: Vec<[f32; 3]> = (0..n)
+            .map(|i| [i as f32, (i as f32).sqrt(), -(i as f32) * 0.5])
+            .collect();
+        let hash = |x: &[[f32; 3]]| {
+            let mut h = WordHash::default();
+            h.items(x.len(), |i| x[i]);
+            h.finish()
+        };
+        let many = hash(&x);
+        // (other tests running meanwhile just run on one thread too)
+        crate::threads::set_single_threaded(true);
+        let one = hash(&x);
+        crate::threads::set_single_threaded(false);
+        assert_eq!(one, many);
+        let mut y = x.clone();
+        y[n - 1][2] = 1.0;
+        assert_ne!(hash(&y), many);
+        assert_ne!(hash(&x[..n - 1]), many);
+    }
+}
