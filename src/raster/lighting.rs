@@ -2,9 +2,10 @@
 //! camera: the fiber counts towards each light, the environment as
 //! directional lights with theirs, the strands' grid for traced
 //! shadows, and the fiber counts towards each opaque sphere's centre
-//! (the light it reflects into the hair, [`super::bounce`]). A camera move re-renders with those of the previous frame
-//! (with `reuse_shadow_maps`, as the shadow maps are): identical either
-//! way, since building them is deterministic.
+//! (the light it reflects into the hair, [`super::bounce`]). A camera
+//! move re-renders with those of the previous frame (with
+//! `reuse_shadow_maps`, as the shadow maps are): identical either way,
+//! since building them is deterministic.
 
 use super::density::{DensityGrid, FiberCount};
 use super::env_light::EnvLights;
@@ -30,8 +31,8 @@ pub struct Lighting {
     /// KarisHair under dual or volume scattering).
     pub env_lights: Option<EnvLights>,
     /// Per scene sphere, the fiber count towards its centre (dual
-    /// scattering's sphere bounce; None for a sphere of no size, and all
-    /// None without the bounce).
+    /// scattering's sphere bounce; None for a sphere of no size; empty
+    /// without the bounce or without hair).
     pub sphere_counts: Vec<Option<FiberCount>>,
 }
 
