@@ -215,8 +215,8 @@ impl SphereLight {
     /// `L_h` towards unit `m` (bilinear; φ wraps, θ clamps).
     fn lookup(&self, m: Vec3) -> Vec3 {
         let (ti, pj) = cell(m);
-        let t0 = ti.floor();
-        let p0 = pj.floor();
+        let t0 = crate::math::floor(ti);
+        let p0 = crate::math::floor(pj);
         let (ft, fp) = (ti - t0, pj - p0);
         let row = |i: i64| i.clamp(0, MAP_THETA as i64 - 1) as usize;
         let col = |j: i64| j.rem_euclid(MAP_PHI as i64) as usize;

@@ -7,6 +7,7 @@
 use super::bin::TILE;
 use super::setup::Segment;
 use super::view::View;
+use crate::math::{ceil, floor};
 use glam::Vec3;
 
 /// An inclusive pixel rectangle, unclamped (may reach off screen).
@@ -51,10 +52,10 @@ impl Tri2 {
         }
         let (xs, ys) = (p.map(|q| q[0]), p.map(|q| q[1]));
         let bounds = PixelBox {
-            x0: xs[0].min(xs[1]).min(xs[2]).floor() as i64,
-            x1: xs[0].max(xs[1]).max(xs[2]).ceil() as i64,
-            y0: ys[0].min(ys[1]).min(ys[2]).floor() as i64,
-            y1: ys[0].max(ys[1]).max(ys[2]).ceil() as i64,
+            x0: floor(xs[0].min(xs[1]).min(xs[2])) as i64,
+            x1: ceil(xs[0].max(xs[1]).max(xs[2])) as i64,
+            y0: floor(ys[0].min(ys[1]).min(ys[2])) as i64,
+            y1: ceil(ys[0].max(ys[1]).max(ys[2])) as i64,
         };
         Some(Self { p, area, bounds })
     }

@@ -523,8 +523,8 @@ mod tests {
             let len2 = d[0] * d[0] + d[1] * d[1];
             let (x0, x1) = (s.a[0].min(s.b[0]) - reach, s.a[0].max(s.b[0]) + reach);
             let (y0, y1) = (s.a[1].min(s.b[1]) - reach, s.a[1].max(s.b[1]) + reach);
-            for y in (y0.floor() as i32)..=(y1.ceil() as i32) {
-                for x in (x0.floor() as i32)..=(x1.ceil() as i32) {
+            for y in (crate::math::floor(y0) as i32)..=(crate::math::ceil(y1) as i32) {
+                for x in (crate::math::floor(x0) as i32)..=(crate::math::ceil(x1) as i32) {
                     let pc = [x as f32 + 0.5, y as f32 + 0.5];
                     let t = if len2 > 0.0 {
                         (((pc[0] - s.a[0]) * d[0] + (pc[1] - s.a[1]) * d[1]) / len2).clamp(0.0, 1.0)

@@ -514,8 +514,9 @@ impl<'a> Index<'a> {
     }
 
     fn coords(&self, p: [f32; 3]) -> [i64; 3] {
-        [0, 1, 2]
-            .map(|a| (((p[a] - self.lo[a]) / self.cell).floor() as i64).clamp(0, self.dims[a] - 1))
+        [0, 1, 2].map(|a| {
+            (crate::math::floor((p[a] - self.lo[a]) / self.cell) as i64).clamp(0, self.dims[a] - 1)
+        })
     }
 
     fn flat(&self, c: [i64; 3]) -> usize {

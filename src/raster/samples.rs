@@ -23,6 +23,7 @@
 use super::bin::TILE;
 use super::coverage::on_stretch_at;
 use super::setup::Segment;
+use crate::math::fract;
 use glam::Vec3;
 
 /// Inclusive range of the number of coverage samples per pixel.
@@ -66,7 +67,7 @@ impl SamplePoints {
         let base: Vec<[f64; 2]> = (0..n)
             .map(|i| {
                 let i = i as f64 + 1.0;
-                [(0.5 + a1 * i).fract(), (0.5 + a2 * i).fract()]
+                [fract(0.5 + a1 * i), fract(0.5 + a2 * i)]
             })
             .collect();
         let mut xy = vec![[0.0f32; 2]; (TILE * TILE) as usize * n];
@@ -80,7 +81,7 @@ impl SamplePoints {
                 // pixel x in f32 for every x below 2^14 (the largest image
                 // side; f32's spacing below it is at most 2⁻¹⁰). Moves 0.1 % of the
                 // points by under 0.001 pixel.
-                let frac = |a: f64| (a.fract() as f32).min(1.0 - 1.0 / 1024.0);
+                let frac = |a: f64| (fract(a) as f32).min(1.0 - 1.0 / 1024.0);
                 for (s, b) in base.iter().enumerate() {
                     xy[k * n + s] = [x as f32 + frac(b[0] + u), y as f32 + frac(b[1] + v)];
                 }

@@ -16,6 +16,7 @@
 use super::coverage::{ray_sphere, Tri2};
 use super::scene::{Light, RenderOptions, Scene};
 use super::setup::{Bounds, WorldSegment};
+use crate::math::{ceil, floor};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::AtomicBool;
@@ -547,10 +548,10 @@ impl ShadowMap {
             2.0 * seg.rb * texels_per_unit(pb.2),
         );
         let pad = 0.5 * wa.max(wb).max(1.0) + 1.0;
-        let x0 = ((ax.min(bx) - pad).floor().max(0.0)) as i64;
-        let x1 = ((ax.max(bx) + pad).ceil() as i64).min(self.size as i64 - 1);
-        let y0 = ((ay.min(by) - pad).floor().max(0.0)) as i64;
-        let y1 = ((ay.max(by) + pad).ceil() as i64).min(self.size as i64 - 1);
+        let x0 = (floor(ax.min(bx) - pad).max(0.0)) as i64;
+        let x1 = (ceil(ax.max(bx) + pad) as i64).min(self.size as i64 - 1);
+        let y0 = (floor(ay.min(by) - pad).max(0.0)) as i64;
+        let y1 = (ceil(ay.max(by) + pad) as i64).min(self.size as i64 - 1);
         let (dx, dy) = (bx - ax, by - ay);
         let len2 = dx * dx + dy * dy;
         for yi in y0..=y1 {

@@ -590,7 +590,7 @@ impl SegmentGrid {
                     } else {
                         let lo = (b[k] * BLOCK) as i64;
                         let hi = (((b[k] + 1) * BLOCK).min(self.dims[k]) - 1) as i64;
-                        (g[k].floor() as i64).clamp(lo, hi)
+                        (crate::math::floor(g[k]) as i64).clamp(lo, hi)
                     };
                     if c[k] < 0 || c[k] >= self.dims[k] as i64 {
                         return false;

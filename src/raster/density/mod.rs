@@ -224,7 +224,7 @@ impl DensityGrid {
     #[inline]
     fn splat(&self, p: Vec3, v: &[f32; 7], ks: std::ops::Range<usize>, m: &mut [[f32; 7]]) {
         let g = (p - self.origin) / self.voxel - 0.5;
-        let b = g.floor();
+        let b = crate::math::floor3(g);
         let f = g - b;
         for dz in 0..2 {
             for dy in 0..2 {
@@ -383,7 +383,7 @@ impl DensityGrid {
                             // upstream (outside the grid: no hair, clear).
                             let (fb, fc) = (ib as f32 + ob, ic as f32 + oc);
                             let (mut nu, mut cu, mut su) = (0.0f32, 0.0f32, 0.0f32);
-                            let (b0, c0) = (fb.floor(), fc.floor());
+                            let (b0, c0) = (crate::math::floor(fb), crate::math::floor(fc));
                             let (wb, wc) = (fb - b0, fc - c0);
                             for (db, wdb) in [(0i64, 1.0 - wb), (1, wb)] {
                                 for (dc, wdc) in [(0i64, 1.0 - wc), (1, wc)] {
@@ -583,7 +583,7 @@ impl FiberCount {
     #[inline]
     fn trilinear(&self, p: Vec3, mut f: impl FnMut(usize, f32)) -> f32 {
         let g = (p - self.origin) / self.voxel - 0.5;
-        let b = g.floor();
+        let b = crate::math::floor3(g);
         let fr = g - b;
         let mut inside = 0.0;
         for dz in 0..2 {

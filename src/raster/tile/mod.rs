@@ -21,6 +21,7 @@ use super::shade::{offset_line, NearLight};
 use super::shade::{Fiber, Shader, ShadowMaps};
 use super::view::View;
 use crate::lighting::sh9_eval;
+use crate::math::{ceil, floor};
 use glam::Vec3;
 
 /// What every tile of a render reads.
@@ -439,10 +440,10 @@ impl<'a> Tile<'a> {
                 break;
             }
             let pad = s.pad();
-            let bx0 = ((s.a[0].min(s.b[0]) - pad).floor() as i64 - x0 as i64).max(0) as u32;
-            let bx1 = ((s.a[0].max(s.b[0]) + pad).ceil() as i64 - x0 as i64).min(tw as i64 - 1);
-            let by0 = ((s.a[1].min(s.b[1]) - pad).floor() as i64 - y0 as i64).max(0) as u32;
-            let by1 = ((s.a[1].max(s.b[1]) + pad).ceil() as i64 - y0 as i64).min(th as i64 - 1);
+            let bx0 = (floor(s.a[0].min(s.b[0]) - pad) as i64 - x0 as i64).max(0) as u32;
+            let bx1 = (ceil(s.a[0].max(s.b[0]) + pad) as i64 - x0 as i64).min(tw as i64 - 1);
+            let by0 = (floor(s.a[1].min(s.b[1]) - pad) as i64 - y0 as i64).max(0) as u32;
+            let by1 = (ceil(s.a[1].max(s.b[1]) + pad) as i64 - y0 as i64).min(th as i64 - 1);
             if bx1 < 0 || by1 < 0 {
                 continue;
             }

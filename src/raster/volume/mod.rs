@@ -343,7 +343,7 @@ impl VolumeRadiance {
             (None, 1.0)
         };
         let q = (p - m.origin) / m.size - Vec3::splat(0.5);
-        let base = q.floor();
+        let base = crate::math::floor3(q);
         let fr = q - base;
         // every bin count the settings allow (BINS.1² at most) fits
         let mut acc = [[0.0f32; 6]; BINS.1 * BINS.1];

@@ -372,7 +372,7 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
             let mut t_next = [f32::INFINITY; 3];
             let mut t_delta = [f32::INFINITY; 3];
             for a in 0..3 {
-                ijk[a] = (p[a].floor() as i32).clamp(0, dims[a] - 1);
+                ijk[a] = (crate::math::floor(p[a]) as i32).clamp(0, dims[a] - 1);
                 if d[a] > 0.0 {
                     step[a] = 1;
                     t_delta[a] = m.voxel / d[a];
