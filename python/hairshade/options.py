@@ -154,6 +154,12 @@ class TracedShadows(MapShadows, total=False):
         "strand crossing the crown before it; the same wherever the strand is cut into segments); passes: a strand never "
         "shadows itself, as in Cycles, which skips every hit on the curve a ray leaves (for comparing with "
         "Cycles; docs/separated.md; the volume's multiple scattering keeps the default)")]
+    vertices: Annotated[bool, Native("traced_vertices"), Doc(
+        "a light's ray is traced from each strand vertex, and a fragment takes its segment's two vertices' "
+        "answer where they agree, tracing its own ray only where they differ (a segment's shadow edges); "
+        "a shadow that starts and ends between two vertices is missed (the demo head: about half the "
+        "rays, relMSE against the truth +0.9%; docs/speed.md). The near field's own probes across a "
+        "fiber (ChiangHair with coverage samples) stay per fragment")]
 
 
 class DualOptions(TypedDict, total=False):
@@ -351,7 +357,9 @@ PRESETS: Dict[str, Dict[str, Any]] = {
         "multiple_scattering": {"karis": "karis", "chiang": "none", "deon": "none"},
         "shading": "vertex",
     },
-    # the best error per second: 16 coverage samples, traced shadows, multiple scattering
+    # the best error per second: 16 coverage samples, traced shadows (decided at the strand
+    # vertices where a segment's two ends agree: about half the rays of a demo-head frame,
+    # relMSE +0.9%; ChiangHair's near field keeps its own probes), multiple scattering
     # through the volume (ChiangHair) or dual scattering (KarisHair), its slowly varying
     # terms read at the strands' vertices (split shading: docs/speed.md), computed at a
     # tenth of the strands (docs/guides.md, guides_held_out.md: 1.1-1.7x faster at 320x180,
@@ -359,7 +367,7 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     # mean within 0.6%)
     "balanced": {
         "transparency": {"coverage": {"samples": 16}},
-        "shadows": {"traced": {}},
+        "shadows": {"traced": {"vertices": True}},
         "multiple_scattering": {"karis": "dual", "chiang": "volume", "deon": "none"},
         "shading": "split",
         "guides": 0.1,

@@ -414,6 +414,7 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
             "shadows",
             &["shadows", "passes"],
         )? == "passes",
+        traced_vertices: r.flag("traced_vertices", def.traced_vertices)?,
         environment_directions: r
             .int("environment_directions", def.environment_directions as i64)?
             as usize,
@@ -522,6 +523,7 @@ fn options_dict<'py>(
             "shadows"
         },
     )?;
+    d.set_item("traced_vertices", o.traced_vertices)?;
     d.set_item("environment_directions", o.environment_directions)?;
     d.set_item("hair_cull_transmittance", o.hair_cull_transmittance as f64)?;
     d.set_item(

@@ -287,6 +287,11 @@ pub struct RenderOptions {
     /// ([`super::traced::SegmentGrid::occluded_with`]; the volume's
     /// transport keeps the tube's rule).
     pub traced_own_strand_passes: bool,
+    /// Traced shadows: a light's ray traced from each strand vertex, and a
+    /// fragment taking its segment's two vertices' answer where they agree
+    /// (its own ray only where they differ; [`super::shade`]'s
+    /// `vertex_shadows`).
+    pub traced_vertices: bool,
     /// Quadrature directions of the environment light for far-field models
     /// ([`super::env_light`]).
     pub environment_directions: usize,
@@ -358,6 +363,7 @@ impl Default for RenderOptions {
             sphere_bounce: true,
             near_field: true,
             traced_own_strand_passes: false,
+            traced_vertices: false,
             environment_directions: super::env_light::DIRECTIONS,
             lod: super::lod::Lod::default(),
             hair_cull_transmittance: 1e-3,

@@ -86,21 +86,28 @@ impl<'a> AtVertices<'a> {
     #[inline]
     fn value(&self, i: usize, strand: usize, f: &impl Fn(Vec3, Vec3, Vec3, Fiber) -> Vec3) -> Vec3 {
         *self.values[i].get_or_init(|| {
-            let st = self.strands;
-            let (first, last) = (
-                st.offsets[strand] as usize,
-                st.offsets[strand + 1] as usize - 1,
-            );
-            let q = st.points[i];
-            let t = (st.points[(i + 1).min(last)] - st.points[i.saturating_sub(1).max(first)])
-                .normalize_or_zero();
-            let vertex = Fiber {
-                radius: st.radii[i],
-                strand: strand as u32,
-                // the segment starting at the vertex (at the tip, the last one)
-                segment: (i.min(last - 1) - strand) as u32,
-            };
+            let (q, t, vertex) = vertex_frame(self.strands, i, strand);
             f(q, t, (self.eye - q).normalize_or_zero(), vertex)
         })
     }
+}
+
+/// Vertex `i` of strand `strand`: its position, its tangent (along its two
+/// neighbours) and its fiber (the segment starting at the vertex; at the
+/// tip, the last one).
+#[inline]
+pub(super) fn vertex_frame(st: &Strands, i: usize, strand: usize) -> (Vec3, Vec3, Fiber) {
+    let (first, last) = (
+        st.offsets[strand] as usize,
+        st.offsets[strand + 1] as usize - 1,
+    );
+    let q = st.points[i];
+    let t = (st.points[(i + 1).min(last)] - st.points[i.saturating_sub(1).max(first)])
+        .normalize_or_zero();
+    let vertex = Fiber {
+        radius: st.radii[i],
+        strand: strand as u32,
+        segment: (i.min(last - 1) - strand) as u32,
+    };
+    (q, t, vertex)
 }

@@ -8,6 +8,7 @@
 
 mod at_vertices;
 mod near;
+mod vertex_shadows;
 mod vertices;
 mod visibility;
 pub use near::{offset_line, NearLight};
@@ -109,6 +110,10 @@ pub struct Shader<'a> {
     split: bool,
     /// The terms read at strand vertices (with a volume, or `split`).
     at_vertices: Option<at_vertices::AtVertices<'a>>,
+    /// Traced shadows decided at strand vertices where a segment's ends
+    /// agree (`render.shadows.traced.vertices`).
+    traced_vertices: bool,
+    vertex_shadows: Option<vertex_shadows::VertexShadows<'a>>,
     /// Coverage samples shade the lights' single scattering by the near
     /// field at each sample's offset across its fiber (see [`near`]).
     near: bool,
@@ -202,6 +207,8 @@ impl<'a> Shader<'a> {
                 opts.split_shading
             },
             at_vertices: None,
+            traced_vertices: opts.traced_vertices,
+            vertex_shadows: None,
             cancel,
             widen: 1.0,
             f_max,
@@ -269,6 +276,19 @@ impl<'a> Shader<'a> {
                 eye,
                 guides.filter(|_| self.split),
             ));
+        }
+        if self.traced_vertices {
+            let traced: Vec<bool> = (0..self.scene.lights.len())
+                .map(|li| self.traced_grid(li).is_some())
+                .collect();
+            if traced.iter().any(|&t| t) {
+                self.vertex_shadows = Some(vertex_shadows::VertexShadows::new(
+                    segments,
+                    &self.scene.strands,
+                    eye,
+                    traced.into_iter(),
+                ));
+            }
         }
         self
     }

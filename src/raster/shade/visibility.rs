@@ -145,12 +145,11 @@ impl Shader<'_> {
         fiber: Fiber,
         trace: bool,
     ) -> f32 {
-        let facing = (v - t * t.dot(v)).normalize_or_zero();
-        let q = p + facing * self.lookup_radius(&fiber);
+        let q = self.facing_point(p, t, v, &fiber);
         let vis = sm
             .as_ref()
             .map_or(1.0, |m| m.visibility_fiber(p, q, &fiber));
-        if trace && vis > 0.0 && self.traced_occluded(li, q, &fiber) {
+        if trace && vis > 0.0 && self.traced_occluded_fragment(li, q, &fiber) {
             return 0.0;
         }
         match self.lit.counts.get(li).and_then(Option::as_ref) {
@@ -160,6 +159,28 @@ impl Shader<'_> {
             }
             _ => vis,
         }
+    }
+
+    /// The surface point of the fiber at axis point `p` (tangent `t`)
+    /// facing the viewer (direction `v`), where its lookups are read.
+    #[inline]
+    fn facing_point(&self, p: Vec3, t: Vec3, v: Vec3, fiber: &Fiber) -> Vec3 {
+        let facing = (v - t * t.dot(v)).normalize_or_zero();
+        p + facing * self.lookup_radius(fiber)
+    }
+
+    /// [`Self::traced_occluded`] for a fragment of `fiber` whose ray leaves
+    /// from `q`: its segment's two vertices' answer where they agree
+    /// (`render.shadows.traced.vertices`), else its own ray.
+    fn traced_occluded_fragment(&self, li: usize, q: Vec3, fiber: &Fiber) -> bool {
+        if let Some(vs) = &self.vertex_shadows {
+            let origin = |p, t, v, f: &Fiber| self.facing_point(p, t, v, f);
+            let blocked = |o, f: &Fiber| self.traced_occluded(li, o, f);
+            if let Some(b) = vs.agreed(li, fiber, origin, blocked) {
+                return b;
+            }
+        }
+        self.traced_occluded(li, q, fiber)
     }
 
     /// Whether a strand blocks light `li` from `o` (shadow model `traced`,
@@ -180,7 +201,7 @@ impl Shader<'_> {
 
     /// The strands' grid where light `li`'s shadows are traced (shadow
     /// model `traced`, a light that casts shadows).
-    fn traced_grid(&self, li: usize) -> Option<&crate::raster::traced::SegmentGrid> {
+    pub(super) fn traced_grid(&self, li: usize) -> Option<&crate::raster::traced::SegmentGrid> {
         match (&self.lit.traced, self.shadows.get(li)) {
             (Some(grid), Some(Some(_))) => Some(grid),
             _ => None,
