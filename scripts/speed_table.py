@@ -12,9 +12,11 @@ path-traced truth. Then, at 1280x720, the speed-ups one at a time against
 what they replace: split shading of every strand against per-fragment
 shading (balanced),
 per-vertex shading against per-fragment (fast), the level of detail
-``lod: "auto"`` (fast), and guide-strand lighting at a tenth of the
-strands (balanced, docs/guides.md), each with the relMSE between the two
-images.
+``lod: "auto"`` (fast), guide-strand lighting at a tenth of the
+strands (balanced, docs/guides.md), and traced shadows decided at the
+strand vertices (``shadows.traced.vertices``, balanced; ChiangHair's near
+field traces its own probes, so only the KarisHair heads change), each
+with the relMSE between the two images.
 Writes docs/speed.md and docs/speed.csv.
 """
 
@@ -80,7 +82,11 @@ def measure(heads: tuple[str, ...], repeats: int):
                 ("vertex shading", "fast", dict(shading="pixel"), dict(shading="vertex")),
                 ("lod auto", "fast", dict(), dict(lod="auto")),
                 ("guides 1/10", "balanced", dict(guides=1.0), dict(guides=0.1)),
+                ("traced at vertices", "balanced", dict(shadows={"traced": {"vertices": False}}),
+                 dict(shadows={"traced": {"vertices": True}})),
             ):
+                if what == "traced at vertices" and scene.model != "karis":
+                    continue  # (the near field's probes: the same image)
                 a, ta = timed(scene, repeats, quality=quality, **base)
                 b, tb = timed(scene, repeats, quality=quality, **fast)
                 r = ratio(b, a)
@@ -117,8 +123,10 @@ def markdown(presets, speedups, command: str) -> str:
     out += ["## What each speed-up costs (1280x720)", "",
             "Each against what it replaces, in the same run: relMSE between the two images, and the largest "
             "change of a channel's mean. Split shading is in `balanced` and `accurate`, guide-strand lighting at a "
-            "tenth of the strands in `balanced` (measured here on split shading of every strand), vertex shading in "
-            "`fast`; `lod: \"auto\"` is not in any preset.", "",
+            "tenth of the strands in `balanced` (measured here on split shading of every strand), traced shadows "
+            "decided at the strand vertices in `balanced` (KarisHair heads only: ChiangHair's near field traces its "
+            "own probes, and its images do not change), vertex shading in `fast`; `lod: \"auto\"` is not in any "
+            "preset.", "",
             "| head | speed-up | quality | before (s) | after (s) | speed | relMSE | mean off by |",
             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in speedups:
