@@ -157,9 +157,9 @@ class TracedShadows(MapShadows, total=False):
     vertices: Annotated[bool, Native("traced_vertices"), Doc(
         "a light's ray is traced from each strand vertex, and a fragment takes its segment's two vertices' "
         "answer where they agree, tracing its own ray only where they differ (a segment's shadow edges); "
-        "a shadow that starts and ends between two vertices is missed (the demo head: about half the "
-        "rays, relMSE against the truth +0.9%; docs/speed.md). The near field's own probes across a "
-        "fiber (ChiangHair with coverage samples) stay per fragment")]
+        "a shadow that starts and ends between two vertices is missed (the demo head at 1280x720: 1.2x "
+        "faster, relMSE 2.5e-4 against per-fragment rays; docs/speed.md). The near field's own probes "
+        "across a fiber (ChiangHair with coverage samples) stay per fragment")]
 
 
 class DualOptions(TypedDict, total=False):
@@ -358,10 +358,10 @@ PRESETS: Dict[str, Dict[str, Any]] = {
         "shading": "vertex",
     },
     # the best error per second: 16 coverage samples, traced shadows (decided at the strand
-    # vertices where a segment's two ends agree: about half the rays of a demo-head frame,
-    # relMSE +0.9%; ChiangHair's near field keeps its own probes), multiple scattering
-    # through the volume (ChiangHair) or dual scattering (KarisHair), its slowly varying
-    # terms read at the strands' vertices (split shading: docs/speed.md), computed at a
+    # vertices where a segment's two ends agree: the demo head 1.2x faster at 1280x720, relMSE
+    # 2.5e-4 against per-fragment rays; ChiangHair's near field keeps its own probes), multiple
+    # scattering through the volume (ChiangHair) or dual scattering (KarisHair), its slowly
+    # varying terms read at the strands' vertices (split shading: docs/speed.md), computed at a
     # tenth of the strands (docs/guides.md, guides_held_out.md: 1.1-1.7x faster at 320x180,
     # the error against the truth within 4.4% of itself on the dense and held-out heads, the
     # mean within 0.6%)
