@@ -68,10 +68,7 @@ impl<'a> AtVertices<'a> {
         fiber: Fiber,
         f: impl Fn(Vec3, Vec3, Vec3, Fiber) -> Vec3,
     ) -> Option<Vec3> {
-        if fiber.strand == NO_STRAND {
-            return None;
-        }
-        let s = self.segments.get(fiber.segment as usize)?;
+        let s = strand_segment(self.segments, &fiber)?;
         let at = |i: usize| match &self.guides {
             Some(g) => g.gather(i, |j| self.value(j, g.owner(j), &f)),
             None => self.value(i, s.strand as usize, &f),
@@ -90,6 +87,18 @@ impl<'a> AtVertices<'a> {
             f(q, t, (self.eye - q).normalize_or_zero(), vertex)
         })
     }
+}
+
+/// The world segment a fragment of `fiber` lies on (None on cards).
+#[inline]
+pub(super) fn strand_segment<'s>(
+    segments: &'s [WorldSegment],
+    fiber: &Fiber,
+) -> Option<&'s WorldSegment> {
+    if fiber.strand == NO_STRAND {
+        return None;
+    }
+    segments.get(fiber.segment as usize)
 }
 
 /// Vertex `i` of strand `strand`: its position, its tangent (along its two

@@ -19,11 +19,10 @@
 //! radius and the eye), not on which fragment asks first or on which
 //! thread, so images are the same at every thread count.
 
-use super::at_vertices::vertex_frame;
+use super::at_vertices::{strand_segment, vertex_frame};
 use super::Fiber;
 use crate::raster::scene::Strands;
 use crate::raster::setup::WorldSegment;
-use crate::raster::shadow::NO_STRAND;
 use glam::Vec3;
 use std::sync::atomic::{AtomicU8, Ordering};
 
@@ -83,11 +82,8 @@ impl<'a> VertexShadows<'a> {
         origin: impl Fn(Vec3, Vec3, Vec3, &Fiber) -> Vec3,
         blocked: impl Fn(Vec3, &Fiber) -> bool,
     ) -> Option<bool> {
-        if fiber.strand == NO_STRAND {
-            return None;
-        }
         let state = self.state.get(li).filter(|s| !s.is_empty())?;
-        let s = self.segments.get(fiber.segment as usize)?;
+        let s = strand_segment(self.segments, fiber)?;
         let at = |i: usize| {
             let x = state[i].load(Ordering::Relaxed);
             if x != UNKNOWN {
