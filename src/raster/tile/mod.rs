@@ -24,6 +24,9 @@ use crate::lighting::sh9_eval;
 use crate::math::{ceil, floor};
 use glam::Vec3;
 
+/// How many segments ahead of the one being drawn the strand pass fetches.
+const PREFETCH_AHEAD: usize = 4;
+
 /// What every tile of a render reads.
 pub struct TileContext<'a> {
     pub scene: &'a Scene,
@@ -417,6 +420,11 @@ impl<'a> Tile<'a> {
         };
         let mut tile_far = f32::INFINITY;
         for (n, &si) in bin.iter().enumerate() {
+            // The bin lists segments by depth, at scattered addresses: the
+            // one a few ahead is fetched while this one is drawn.
+            if let Some(&ahead) = bin.get(n + PREFETCH_AHEAD) {
+                crate::simd::prefetch(&self.ctx.segs[ahead as usize]);
+            }
             let s = &self.ctx.segs[si as usize];
             if skip {
                 if n % 8 == 0 {
