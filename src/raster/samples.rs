@@ -32,11 +32,21 @@ pub const SAMPLES: (usize, usize) = (1, 64);
 /// Owner of a sample no hair covers.
 const NONE: u32 = u32::MAX;
 
-/// Sample points of the pixels of one tile, in image coordinates.
+/// Sample points of the pixels of one tile, in image coordinates. A
+/// pixel's points are computed when it is first asked for
+/// ([`Self::pixel_mut`], [`Self::fill`]): most of a tile's pixels may hold
+/// no hair, and their points are then never needed.
 pub struct SamplePoints {
     pub n: usize,
-    /// `(x, y)` of sample `s` of tile pixel `k` at `k·n + s`.
+    /// The tile's first pixel.
+    x0: u32,
+    y0: u32,
+    /// The R2 points in the unit square, before each pixel's shift.
+    base: Vec<[f64; 2]>,
+    /// `(x, y)` of sample `s` of tile pixel `k` at `k·n + s` (where `filled`).
     xy: Vec<[f32; 2]>,
+    /// Which pixels' points are computed, a bit per tile pixel.
+    filled: [u64; (TILE * TILE / 64) as usize],
 }
 
 /// A 32-bit integer hash (lowbias32, Wellons 2018).
@@ -58,9 +68,20 @@ pub fn unit(x: u32) -> f32 {
 
 impl SamplePoints {
     /// The points of the `tw × th` pixels of the tile starting at
-    /// `(x0, y0)`: R2 points shifted per pixel by a hash of its image
-    /// coordinates (the same in every render and thread).
+    /// `(x0, y0)`, all computed: R2 points shifted per pixel by a hash of
+    /// its image coordinates (the same in every render and thread).
     pub fn new(n: usize, x0: u32, y0: u32, tw: u32, th: u32) -> Self {
+        let mut pts = Self::lazy(n, x0, y0);
+        for j in 0..th {
+            for i in 0..tw {
+                pts.fill((j * TILE + i) as usize);
+            }
+        }
+        pts
+    }
+
+    /// The same points, none computed yet.
+    pub fn lazy(n: usize, x0: u32, y0: u32) -> Self {
         // R2: the plastic number's inverse powers.
         const G: f64 = 1.324_717_957_244_746;
         let (a1, a2) = (1.0 / G, 1.0 / (G * G));
@@ -70,29 +91,49 @@ impl SamplePoints {
                 [fract(0.5 + a1 * i), fract(0.5 + a2 * i)]
             })
             .collect();
-        let mut xy = vec![[0.0f32; 2]; (TILE * TILE) as usize * n];
-        for j in 0..th {
-            for i in 0..tw {
-                let (x, y) = (x0 + i, y0 + j);
-                let seed = x.wrapping_mul(0x9E37_79B1) ^ y.wrapping_mul(0x85EB_CA77);
-                let (u, v) = (unit(seed) as f64, unit(seed ^ 0x68E3_1DA4) as f64);
-                let k = (j * TILE + i) as usize;
-                // Fractions at most 1 − 2⁻¹⁰, so that x + fraction stays in
-                // pixel x in f32 for every x below 2^14 (the largest image
-                // side; f32's spacing below it is at most 2⁻¹⁰). Moves 0.1 % of the
-                // points by under 0.001 pixel.
-                let frac = |a: f64| (fract(a) as f32).min(1.0 - 1.0 / 1024.0);
-                for (s, b) in base.iter().enumerate() {
-                    xy[k * n + s] = [x as f32 + frac(b[0] + u), y as f32 + frac(b[1] + v)];
-                }
-            }
+        Self {
+            n,
+            x0,
+            y0,
+            base,
+            xy: vec![[0.0f32; 2]; (TILE * TILE) as usize * n],
+            filled: [0; (TILE * TILE / 64) as usize],
         }
-        Self { n, xy }
     }
 
-    /// The sample points of tile pixel `k`.
+    /// Computes the points of tile pixel `k` unless they are.
+    #[inline]
+    pub fn fill(&mut self, k: usize) {
+        if self.filled[k / 64] & (1 << (k % 64)) != 0 {
+            return;
+        }
+        self.filled[k / 64] |= 1 << (k % 64);
+        let n = self.n;
+        let (x, y) = (self.x0 + k as u32 % TILE, self.y0 + k as u32 / TILE);
+        let seed = x.wrapping_mul(0x9E37_79B1) ^ y.wrapping_mul(0x85EB_CA77);
+        let (u, v) = (unit(seed) as f64, unit(seed ^ 0x68E3_1DA4) as f64);
+        // Fractions at most 1 − 2⁻¹⁰, so that x + fraction stays in
+        // pixel x in f32 for every x below 2^14 (the largest image
+        // side; f32's spacing below it is at most 2⁻¹⁰). Moves 0.1 % of the
+        // points by under 0.001 pixel.
+        let frac = |a: f64| (fract(a) as f32).min(1.0 - 1.0 / 1024.0);
+        for (s, b) in self.base.iter().enumerate() {
+            self.xy[k * n + s] = [x as f32 + frac(b[0] + u), y as f32 + frac(b[1] + v)];
+        }
+    }
+
+    /// The sample points of tile pixel `k`, computed first if need be.
+    #[inline]
+    pub fn pixel_mut(&mut self, k: usize) -> &[[f32; 2]] {
+        self.fill(k);
+        &self.xy[k * self.n..(k + 1) * self.n]
+    }
+
+    /// The sample points of tile pixel `k`, which must be computed
+    /// ([`Self::fill`]).
     #[inline]
     pub fn pixel(&self, k: usize) -> &[[f32; 2]] {
+        debug_assert!(self.filled[k / 64] & (1 << (k % 64)) != 0);
         &self.xy[k * self.n..(k + 1) * self.n]
     }
 }
@@ -518,6 +559,25 @@ mod tests {
             }
         }
         assert!((sx / m as f64 - 0.5).abs() < 0.01 && (sy / m as f64 - 0.5).abs() < 0.01);
+    }
+
+    /// 1b. Points computed on first use are the points computed all at
+    ///     once, bit for bit: a tile's pixels asked for in a scrambled
+    ///     order, some twice, on a tile off the image origin and clipped
+    ///     at the image's edge (11 × 5 pixels inside).
+    #[test]
+    fn t01b_lazy_points_equal_eager_points() {
+        let (x0, y0, tw, th) = (3 * TILE, 7 * TILE, 11, 5);
+        let eager = SamplePoints::new(16, x0, y0, tw, th);
+        let mut lazy = SamplePoints::lazy(16, x0, y0);
+        let inside: Vec<usize> = (0..th)
+            .flat_map(|j| (0..tw).map(move |i| (j * TILE + i) as usize))
+            .collect();
+        for step in 0..2 * inside.len() {
+            let k = inside[(step * 37 + 5) % inside.len()];
+            let bits = |p: &[[f32; 2]]| p.iter().map(|q| q.map(f32::to_bits)).collect::<Vec<_>>();
+            assert_eq!(bits(lazy.pixel_mut(k)), bits(eager.pixel(k)), "pixel {k}");
+        }
     }
 
     /// 2. A sub-pixel strand covers a fraction of a long row of pixels equal

@@ -283,7 +283,7 @@ impl<'a> Tile<'a> {
     /// The sample buffer, once the opaque depth is known (coverage mode).
     fn start_samples(&mut self) {
         if let Transparency::Coverage(n) = self.ctx.opts.transparency {
-            let pts = SamplePoints::new(n, self.x0, self.y0, self.tw, self.th);
+            let pts = SamplePoints::lazy(n, self.x0, self.y0);
             self.samples = Some((pts, SampleBuffer::new(n, &self.opaque_depth)));
         }
     }
@@ -332,7 +332,7 @@ impl<'a> Tile<'a> {
             return;
         };
         let id = self.pending.k.len() as u32;
-        if cover(buf, pts.pixel(k), id) {
+        if cover(buf, pts.pixel_mut(k), id) {
             self.fragments += 1;
             self.pending.push(k, depth, 1.0, p, t, fiber);
             // NaN: not shaded yet (a card, or per-fragment shading)

@@ -6,6 +6,7 @@
 
 use super::{Pending, Tile, TileMemory, TileResult};
 use crate::raster::bin::TILE;
+use crate::raster::samples::SAMPLES;
 use crate::raster::shade::{Fiber, Shader};
 use crate::raster::shadow::ShadowModel;
 use glam::Vec3;
@@ -87,18 +88,35 @@ impl Tile<'_> {
     /// bounds what is left out by cutoff × its radiance, as for the hair
     /// behind).
     fn pixel(&mut self, k: usize) -> Vec3 {
+        // Traced shadows are exact per point: an opaque surface is then
+        // shaded where each uncovered sample sees it, not once at the pixel
+        // centre (a fiber's shadow is thinner than a pixel; one point made
+        // it 0 or 1 for the whole pixel).
+        let per_sample =
+            self.surface[k].is_some() && self.ctx.opts.shadow_model == ShadowModel::Traced;
+        // The points are read for a surface shaded per sample and for the
+        // near field of the fragments owning samples (whose pixels have
+        // them already); a pixel with neither never computes them.
+        let mut has_points = false;
+        if let Some((pts, buf)) = &mut self.samples {
+            if per_sample || buf.owners(k).any(|o| o.is_some()) {
+                pts.fill(k);
+                has_points = true;
+            }
+        }
         match &self.samples {
             Some((pts, buf)) => {
-                // Traced shadows are exact per point: an opaque surface is
-                // then shaded where each uncovered sample sees it, not once
-                // at the pixel centre (a fiber's shadow is thinner than a
-                // pixel; one point made it 0 or 1 for the whole pixel).
-                let per_sample =
-                    self.surface[k].is_some() && self.ctx.opts.shadow_model == ShadowModel::Traced;
+                // (NaN where no point is read)
+                const UNREAD: [[f32; 2]; SAMPLES.1] = [[f32::NAN; 2]; SAMPLES.1];
+                let points = if has_points {
+                    pts.pixel(k)
+                } else {
+                    &UNREAD[..buf.n]
+                };
                 let mut c = Vec3::ZERO;
                 let mut uncovered = 0u32;
                 let pd = &self.pending;
-                for (o, xy) in buf.owners(k).zip(pts.pixel(k)) {
+                for (o, xy) in buf.owners(k).zip(points) {
                     match o {
                         Some(i) if pd.near.get(i as usize).is_some_and(|r| r.1 > r.0) => {
                             // the near field at the sample's offset
