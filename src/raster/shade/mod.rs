@@ -628,6 +628,9 @@ impl<'a> Shader<'a> {
             let Some(inc) = self.incident(source, p, t, v, fiber, need, !near, &mut tally) else {
                 continue;
             };
+            if matches!(source, Source::Environment(_)) && inc.blocked() {
+                continue;
+            }
             let (Some(list), HairShading::ChiangFar(c), Source::Light(li)) =
                 (unscattered.as_deref_mut(), &self.hair, source)
             else {
@@ -691,6 +694,9 @@ impl<'a> Shader<'a> {
             let Some(inc) = self.incident(source, p, t, v, fiber, need, true, &mut tally) else {
                 continue;
             };
+            if !light && inc.blocked() {
+                continue;
+            }
             out += if light {
                 self.scattered_response(v, t, &inc)
             } else {

@@ -45,6 +45,18 @@ pub(super) struct Incident {
     pub path: LightPath,
 }
 
+impl Incident {
+    /// Whether nothing of it arrives: no unscattered light, and the whole
+    /// way blocked by opaque geometry (a head), which leaves dual
+    /// scattering's scattered light, weighted by `path.clear`, at 0 as
+    /// well. Every response to it is then exactly 0, and a caller may skip
+    /// computing it (the sum is the same, bit for bit).
+    #[inline]
+    pub fn blocked(&self) -> bool {
+        self.unscattered == 0.0 && self.path.clear == 0.0
+    }
+}
+
 impl Shader<'_> {
     /// The sources in the order they are summed: the scene's lights, then
     /// the environment's directions (unless `lights_only`).
