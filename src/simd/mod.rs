@@ -500,12 +500,13 @@ pub fn prefetch<T>(p: &T) {
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
         let first = p as *const T as *const i8;
-        let lines = std::mem::size_of::<T>().div_ceil(64).max(1);
-        for l in 0..lines {
-            // SAFETY: a prefetch never faults and reads nothing into the
-            // program's state; the addresses lie within (or at most one
-            // line past the start of the last line of) `*p`.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(first.wrapping_add(64 * l)) };
+        let size = std::mem::size_of::<T>().max(1);
+        // a byte every 64 from the first, and the last: every line `*p`
+        // touches, wherever it starts within one
+        for offset in (0..size).step_by(64).chain([size - 1]) {
+            // SAFETY: a prefetch never faults and changes no value; every
+            // address lies within `*p`.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(first.wrapping_add(offset)) };
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
