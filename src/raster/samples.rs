@@ -104,7 +104,7 @@ impl SamplePoints {
     /// Computes the points of tile pixel `k` unless they are.
     #[inline]
     pub fn fill(&mut self, k: usize) {
-        if self.filled[k / 64] & (1 << (k % 64)) != 0 {
+        if self.is_filled(k) {
             return;
         }
         self.filled[k / 64] |= 1 << (k % 64);
@@ -133,8 +133,20 @@ impl SamplePoints {
     /// ([`Self::fill`]).
     #[inline]
     pub fn pixel(&self, k: usize) -> &[[f32; 2]] {
-        debug_assert!(self.filled[k / 64] & (1 << (k % 64)) != 0);
+        debug_assert!(self.is_filled(k));
         &self.xy[k * self.n..(k + 1) * self.n]
+    }
+
+    /// The sample points of tile pixel `k` where they are computed.
+    #[inline]
+    pub fn computed(&self, k: usize) -> Option<&[[f32; 2]]> {
+        self.is_filled(k)
+            .then(|| &self.xy[k * self.n..(k + 1) * self.n])
+    }
+
+    #[inline]
+    fn is_filled(&self, k: usize) -> bool {
+        self.filled[k / 64] & (1 << (k % 64)) != 0
     }
 }
 

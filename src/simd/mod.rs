@@ -323,6 +323,29 @@ pub(crate) fn store<V: Lanes, const W: usize>(o: &mut [f32], x: &[V; W], count: 
     }
 }
 
+/// Asks the CPU to bring the cache lines of `*p` towards the cache ahead of
+/// its use (no effect on any value; a no-op off x86-64). For loops whose
+/// next items lie at unpredictable addresses, such as a tile's strand
+/// segments, listed by depth.
+#[inline(always)]
+pub fn prefetch<T>(p: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let first = p as *const T as *const i8;
+        let size = std::mem::size_of::<T>().max(1);
+        // a byte every 64 from the first, and the last: every line `*p`
+        // touches, wherever it starts within one
+        for offset in (0..size).step_by(64).chain([size - 1]) {
+            // SAFETY: a prefetch never faults and changes no value; every
+            // address lies within `*p`.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(first.wrapping_add(offset)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -488,27 +511,4 @@ mod tests {
     fn t03_special_functions_match_f64() {
         at_every_level!(check_special);
     }
-}
-
-/// Asks the CPU to bring the cache lines of `*p` towards the cache ahead of
-/// its use (no effect on any value; a no-op off x86-64). For loops whose
-/// next items lie at unpredictable addresses, such as a tile's strand
-/// segments, listed by depth.
-#[inline(always)]
-pub fn prefetch<T>(p: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let first = p as *const T as *const i8;
-        let size = std::mem::size_of::<T>().max(1);
-        // a byte every 64 from the first, and the last: every line `*p`
-        // touches, wherever it starts within one
-        for offset in (0..size).step_by(64).chain([size - 1]) {
-            // SAFETY: a prefetch never faults and changes no value; every
-            // address lies within `*p`.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(first.wrapping_add(offset)) };
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
 }

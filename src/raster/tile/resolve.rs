@@ -95,24 +95,18 @@ impl Tile<'_> {
         let per_sample =
             self.surface[k].is_some() && self.ctx.opts.shadow_model == ShadowModel::Traced;
         // The points are read for a surface shaded per sample and for the
-        // near field of the fragments owning samples (whose pixels have
-        // them already); a pixel with neither never computes them.
-        let mut has_points = false;
-        if let Some((pts, buf)) = &mut self.samples {
-            if per_sample || buf.owners(k).any(|o| o.is_some()) {
+        // near field of the fragments owning samples, whose pixels computed
+        // them when the fragments covered them; a pixel with neither never
+        // computes them, and reads NaN (none of it is read).
+        if per_sample {
+            if let Some((pts, _)) = &mut self.samples {
                 pts.fill(k);
-                has_points = true;
             }
         }
         match &self.samples {
             Some((pts, buf)) => {
-                // (NaN where no point is read)
                 const UNREAD: [[f32; 2]; SAMPLES.1] = [[f32::NAN; 2]; SAMPLES.1];
-                let points = if has_points {
-                    pts.pixel(k)
-                } else {
-                    &UNREAD[..buf.n]
-                };
+                let points = pts.computed(k).unwrap_or(&UNREAD[..buf.n]);
                 let mut c = Vec3::ZERO;
                 let mut uncovered = 0u32;
                 let pd = &self.pending;
