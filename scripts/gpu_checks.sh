@@ -6,8 +6,8 @@
 #   scaling    thread scaling (scripts/thread_scaling.py);
 #   equal      Mitsuba cuda_ad_rgb at each preset's error (scripts/mitsuba_equal_error.py);
 #   before     the frame at 16 threads with an earlier wheel (.dev/before.whl, a `maturin build` of an
-#              earlier commit) and with this checkout's, one after the other (docs/scaling_before*.md and
-#              docs/scaling_after*.md);
+#              earlier commit) and a later one (.dev/after.whl; without it, the site's), alternated in
+#              BEFORE_RUNS (3) processes each (docs/scaling_ab.csv, summarized in docs/scaling_ab.md);
 #   refs       llvm_ad_rgb references of the held-out heads REF_HEADS at 2 x REF_SPP spp, seeds REF_SEEDS,
 #              the strands traced as REF_CURVE (bspline, as the cached NAME.exr; polyline: NAME_polyline.exr).
 # STEPS picks them (default: separated scaling equal).
@@ -60,12 +60,18 @@ held_out() {  # held_out SPP SECONDS HEADS
         timeout ${EQUAL_S:-180} $py scripts/mitsuba_equal_error.py --variant "$variant" --max-spp ${MAX_SPP:-1024} \
           --demo-truth .dev/demo_head_640.exr ;;
       before)
-        mkdir -p /tmp/before && $py -m zipfile -e .dev/before.whl /tmp/before
-        for k in ${BEFORE_RUNS:-1}; do
-          PYTHONPATH=/tmp/before:${PYTHONPATH:-} timeout ${BEFORE_S:-60} $py scripts/thread_scaling.py --threads 16 \
-            --repeats ${BEFORE_REPEATS:-2} --name scaling_before$k
-          timeout ${BEFORE_S:-60} $py scripts/thread_scaling.py --threads 16 --repeats ${BEFORE_REPEATS:-2} --name scaling_after$k
-        done ;;
+        # builds alternated (before, after; after, before; ...), BEFORE_RUNS processes each
+        mkdir -p /tmp/before /tmp/after /tmp/ab && $py -m zipfile -e .dev/before.whl /tmp/before
+        if [ -f .dev/after.whl ]; then $py -m zipfile -e .dev/after.whl /tmp/after; fi
+        for k in $(seq ${BEFORE_RUNS:-3}); do
+          if [ $((k % 2)) = 0 ]; then order="after before"; else order="before after"; fi
+          for b in $order; do
+            PYTHONPATH=/tmp/$b:${PYTHONPATH:-} timeout ${BEFORE_S:-70} $py scripts/thread_scaling.py --threads 16 \
+              --repeats ${BEFORE_REPEATS:-2} --out /tmp/ab --name ${b}_$k
+          done
+        done
+        for f in /tmp/ab/*.csv; do sed "s/^/$(basename $f .csv),/" $f; done > docs/scaling_ab.csv
+        $py scripts/thread_scaling.py --ab docs/scaling_ab.csv ;;  # (on that machine: its CPU named)
       refs)
         timeout ${REFS_S:-240} $py scripts/held_out_heads.py /tmp/held --spp ${REF_SPP:-4096} --seeds ${REF_SEEDS:-23,24} \
           --variant llvm_ad_rgb --heads ${REF_HEADS:-curly_blond_env} --curve ${REF_CURVE:-bspline}

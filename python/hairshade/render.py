@@ -81,7 +81,21 @@ def render(
     can be seen, a terminal or a notebook) over the tiles, and over the
     solve of multiple scattering through the volume when there is one (100
     steps). Ctrl-C stops the render (KeyboardInterrupt). Non-finite pixels (an overflow) are set to 0,
-    counted in the stats as ``non_finite_pixels``, and reported by a ``RuntimeWarning``."""
+    counted in the stats as ``non_finite_pixels``, and reported by a ``RuntimeWarning``.
+
+    ``return_stats=True`` returns ``(image, stats)``. ``stats`` holds the
+    renderer's resolved options (``transparency``, ``samples``,
+    ``shading``, ...) and what the frame did: counts (``segments``,
+    ``segments_visible``, ``fragments``, ``vertices_shaded``,
+    ``strands_drawn``, the ``culled_*`` counts, ``non_finite_pixels``),
+    what it reused from the frame before (``shadow_maps_reused``,
+    ``lighting_reused``, ``volume_reused``), ``memory_estimate`` (bytes),
+    and wall times in milliseconds: ``shadow_ms``, ``setup_ms`` (which
+    includes ``vertex_ms``), ``tiles_ms``, ``volume_ms``, ``guides_ms`` and
+    ``total_ms`` (the renderer's whole frame; the call's own wall time adds
+    the scene's conversion in and the image's out). ``tiles_busy_ms`` is
+    the tiles' own times summed: over ``tiles_ms`` times the threads, how
+    busy the threads were in the tile pass."""
     return _render(scene, width, height, progress, return_stats, scene.options(**settings))
 
 

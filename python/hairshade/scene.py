@@ -513,7 +513,8 @@ def _strand_arrays_plausible(points: Any, radii: Any, offsets: Any) -> bool:
         return False
     if len(p) == 0:
         return True
-    return bool(np.abs(p).max() <= MAX_MAGNITUDE and r.min() >= 0 and r.max() <= MAX_MAGNITUDE)
+    # (max and min without a temporary; either is NaN where a value is)
+    return bool(p.max() <= MAX_MAGNITUDE and -p.min() <= MAX_MAGNITUDE and r.min() >= 0 and r.max() <= MAX_MAGNITUDE)
 
 
 def _magnitude_error(p: np.ndarray, r: np.ndarray, points: str, radii: str) -> str | None:

@@ -658,6 +658,7 @@ pub fn render<'py>(
     d.set_item("vertex_ms", stats.vertex_ms)?;
     d.set_item("setup_ms", stats.setup_ms)?;
     d.set_item("tiles_ms", stats.tiles_ms)?;
+    d.set_item("tiles_busy_ms", stats.tiles_busy_ms)?;
     d.set_item("total_ms", stats.total_ms)?;
     d.set_item("memory_estimate", memory.total())?;
     Ok((to_numpy(py, image.data), d))

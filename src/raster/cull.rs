@@ -31,7 +31,7 @@ use glam::Vec3;
 /// even filled in parallel, costs more in first-touch page faults:
 /// measured 6 ms in place, 32 ms into a new vector on 2 threads).
 pub fn visible_segments(
-    mut segs: Vec<Segment>,
+    segs: Vec<Segment>,
     grid: Option<TileGrid>,
     spheres: &[Sphere],
     view: &View,
@@ -56,12 +56,52 @@ pub fn visible_segments(
             .collect()
     });
     let dropped = verdict.iter().filter(|&&v| v == 1).count() as u64;
-    let mut k = 0;
-    segs.retain(|_| {
-        k += 1;
-        verdict[k - 1] == 2
+    (keep_marked(&segs, &verdict), dropped)
+}
+
+/// Segments a task of [`keep_marked`] copies.
+const KEEP_CHUNK: usize = 8192;
+
+/// The segments whose verdict is 2, in order, copied in parallel (a
+/// head's 400 000 segments of 108 bytes, compacted in place on one thread,
+/// took 6 ms a frame): each chunk's count, then each chunk writes its
+/// kept segments at its own offset.
+fn keep_marked(segs: &[Segment], verdict: &[u8]) -> Vec<Segment> {
+    use rayon::prelude::*;
+    let counts: Vec<usize> = crate::threads::pool().install(|| {
+        verdict
+            .par_chunks(KEEP_CHUNK)
+            .map(|v| v.iter().filter(|&&v| v == 2).count())
+            .collect()
     });
-    (segs, dropped)
+    let kept: usize = counts.iter().sum();
+    let mut out: Vec<Segment> = Vec::with_capacity(kept);
+    // each chunk's place in the output
+    let mut places = Vec::with_capacity(counts.len());
+    let mut rest = &mut out.spare_capacity_mut()[..kept];
+    for &n in &counts {
+        let (place, tail) = rest.split_at_mut(n);
+        places.push(place);
+        rest = tail;
+    }
+    crate::threads::pool().install(|| {
+        places
+            .into_par_iter()
+            .zip(
+                segs.par_chunks(KEEP_CHUNK)
+                    .zip(verdict.par_chunks(KEEP_CHUNK)),
+            )
+            .for_each(|(place, (s, v))| {
+                let kept = s.iter().zip(v).filter(|(_, &v)| v == 2).map(|(s, _)| *s);
+                for (slot, s) in place.iter_mut().zip(kept) {
+                    slot.write(s);
+                }
+            })
+    });
+    // SAFETY: the chunks' places tile the first `kept` slots, and each
+    // chunk wrote exactly its count of segments into its place.
+    unsafe { out.set_len(kept) };
+    out
 }
 
 /// Whether a sphere hides a segment (None: no sphere can). A segment is
@@ -549,5 +589,72 @@ mod tests {
             }
         }
         assert!(pixels_checked > 1000, "{pixels_checked}");
+    }
+
+    /// 3. The parallel compaction keeps exactly the segments marked 2, in
+    ///    order, bit for bit as a sequential filter does, on one thread
+    ///    and on all: at lengths around its chunk (0, 1, a chunk, a chunk
+    ///    and one, several chunks), with none, some and all kept.
+    #[test]
+    fn t03_kept_segments_in_order() {
+        use super::{keep_marked, KEEP_CHUNK};
+        use crate::raster::scene::{Camera, Strands};
+        use crate::raster::setup::project_segments;
+        use crate::raster::view::View;
+        let camera = Camera {
+            position: Vec3::new(0.0, 0.0, 3.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 30.0,
+            width: 64,
+            height: 64,
+        };
+        let view = View::new(&camera, 3.0);
+        let mut rnd = uniform(0x5eed);
+        let n = 3 * KEEP_CHUNK + 17;
+        let points: Vec<Vec3> = (0..2 * n)
+            .map(|_| Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5))
+            .collect();
+        let st = Strands {
+            radii: vec![0.01; points.len()],
+            offsets: (0..=n as u32).map(|k| 2 * k).collect(),
+            points,
+        };
+        let all = project_segments(&st, &view);
+        assert_eq!(all.len(), n);
+        let bits = |s: &super::Segment| {
+            let mut h = Vec::new();
+            for v in [s.a[0], s.b[1], s.za, s.zb, s.ra, s.rb] {
+                h.push(v.to_bits());
+            }
+            h.extend([s.strand, s.i]);
+            h
+        };
+        for len in [0, 1, KEEP_CHUNK, KEEP_CHUNK + 1, n] {
+            for share in [0.0f32, 0.3, 1.0] {
+                let segs = &all[..len];
+                let verdict: Vec<u8> = (0..len)
+                    .map(|_| {
+                        if rnd() < share {
+                            2
+                        } else {
+                            (rnd() * 2.0) as u8
+                        }
+                    })
+                    .collect();
+                let want: Vec<_> = segs
+                    .iter()
+                    .zip(&verdict)
+                    .filter(|(_, &v)| v == 2)
+                    .map(|(s, _)| bits(s))
+                    .collect();
+                let got: Vec<_> = keep_marked(segs, &verdict).iter().map(bits).collect();
+                assert_eq!(got, want, "len {len}, share {share}");
+                crate::threads::set_single_threaded(true);
+                let one: Vec<_> = keep_marked(segs, &verdict).iter().map(bits).collect();
+                crate::threads::set_single_threaded(false);
+                assert_eq!(one, want, "len {len}, share {share}, one thread");
+            }
+        }
     }
 }

@@ -53,8 +53,8 @@ pub fn shadow_map_bytes(n: u32, model: ShadowModel) -> u64 {
 
 /// Voxels of the density grid of `scene` at `resolution` (the arithmetic
 /// of [`super::density::DensityGrid::new`]); 0 without hair.
-fn density_voxels(scene: &Scene, resolution: usize) -> u64 {
-    super::density::grid_frame(scene, resolution)
+fn density_voxels(hair: Option<(glam::Vec3, glam::Vec3)>, resolution: usize) -> u64 {
+    hair.and_then(|b| super::density::grid_frame_in(b, resolution))
         .map_or(0, |(_, _, d)| d.iter().map(|&e| e as u64).product())
 }
 
@@ -76,6 +76,9 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
             )
         })
         .count() as u64;
+    // the hair's box, once (it reads every vertex), where a grid needs it
+    let boxed = std::cell::OnceCell::new();
+    let hair = || *boxed.get_or_init(|| super::density::hair_box_of(scene));
     let mut items = vec![
         // The tiles' results and the assembled image, RGB float each.
         ("image (framebuffer and tiles)", pixels * 12 * 2),
@@ -95,14 +98,14 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
     let per_light = if m.counts_behind { 12 } else { 8 };
     if m.fiber_counts && shadowed > 0 {
         // Moments (7 floats) summed from 8 per-chunk grids, and the counts.
-        let voxels = density_voxels(scene, opts.density_resolution);
+        let voxels = density_voxels(hair(), opts.density_resolution);
         items.push(("density grid", voxels * (28 * 9 + per_light * shadowed)));
     }
     if m.environment_as_lights {
         // The environment as lights: a coarser grid, the counts per voxel
         // for each direction.
         let voxels = density_voxels(
-            scene,
+            hair(),
             super::env_light::grid_resolution(opts.density_resolution, m.dual),
         );
         items.push((
@@ -134,7 +137,7 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
         };
         items.push((
             "volume scattering",
-            super::volume::bytes_estimate(scene, &s) as u64 + grid,
+            hair().map_or(0, |b| super::volume::bytes_estimate(scene, b, &s)) as u64 + grid,
         ));
     }
     MemoryEstimate { items }

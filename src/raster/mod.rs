@@ -127,6 +127,11 @@ pub struct RenderStats {
     pub setup_ms: f64,
     pub tiles_ms: f64,
     pub total_ms: f64,
+    /// The tiles' own times summed, in milliseconds: against `tiles_ms`
+    /// times the threads, how busy the threads were in the tile pass
+    /// (idle time is imbalance; busy time that grows with the threads is
+    /// memory bandwidth or contention).
+    pub tiles_busy_ms: f64,
 }
 
 /// The rendered image: linear radiance, row-major, RGB.
@@ -380,6 +385,7 @@ pub fn render_with_progress(
         solids: &solids,
         uniform_background: tile::uniform_background(scene, opts),
     };
+    let busy_ns = std::sync::atomic::AtomicU64::new(0);
     let results: Vec<TileResult> = pool().install(|| {
         (0..grid.count())
             .into_par_iter()
@@ -393,7 +399,9 @@ pub fn render_with_progress(
                     solids: solid_bins.tile(ti),
                 };
                 let (tx, ty) = grid.coords(ti);
+                let t = std::time::Instant::now();
                 let r = render_tile(&ctx, &bins, tx, ty, mem);
+                busy_ns.fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
                 done.fetch_add(1, Ordering::Relaxed);
                 r
             })
@@ -403,6 +411,7 @@ pub fn render_with_progress(
         return None;
     }
     stats.tiles_ms = ms(t2);
+    stats.tiles_busy_ms = busy_ns.load(Ordering::Relaxed) as f64 * 1e-6;
 
     // 6. The image.
     let image = assemble(&results, grid, view.width, view.height, &mut stats);

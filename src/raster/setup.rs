@@ -137,49 +137,68 @@ pub const OUTLIER_DISTANCE: f32 = 16.0;
 /// maps and grids do not reach them, so they cast no shadows there). None
 /// without a finite vertex.
 pub fn hair_box(strands: &[&Strands]) -> Option<(Vec3, Vec3)> {
-    // vertex i of the sets laid end to end
-    let ends: Vec<usize> = strands
+    let runs: Vec<(&[Vec3], &[f32])> = strands
         .iter()
-        .scan(0, |n, st| {
-            *n += st.points.len().min(st.radii.len());
-            Some(*n)
+        .map(|st| {
+            let n = st.points.len().min(st.radii.len());
+            (&st.points[..n], &st.radii[..n])
         })
         .collect();
-    let n = ends.last().copied().unwrap_or(0);
-    box_of(n, |i| {
-        let k = ends.partition_point(|&e| e <= i);
-        let j = i - if k > 0 { ends[k - 1] } else { 0 };
-        (strands[k].points[j], strands[k].radii[j])
-    })
+    box_of(&runs)
 }
 
 /// [`hair_box`] of points with radii.
 pub fn robust_box(pts: Vec<(Vec3, f32)>) -> Option<(Vec3, Vec3)> {
-    box_of(pts.len(), |i| pts[i])
+    let (points, radii): (Vec<Vec3>, Vec<f32>) = pts.into_iter().unzip();
+    box_of(&[(&points, &radii)])
 }
 
-/// [`hair_box`] of the `n` points with radii `point(i)`, read in place
-/// (the statistics from a sample, the box in parallel: a head's 425 000
-/// vertices, copied out first, took 10 ms a frame on one thread).
-fn box_of(n: usize, point: impl Fn(usize) -> (Vec3, f32) + Sync) -> Option<(Vec3, Vec3)> {
+/// Vertices a task of [`box_of`]'s passes reads.
+const BOX_CHUNK: usize = 8192;
+
+/// [`hair_box`] of the points with radii of `runs` laid end to end, read
+/// in place run by run (the statistics from a sample, the box in
+/// parallel: a head's 425 000 vertices, copied out first, took 10 ms a
+/// frame on one thread; read through an index over the runs, 5 ms).
+fn box_of(runs: &[(&[Vec3], &[f32])]) -> Option<(Vec3, Vec3)> {
     use rayon::prelude::*;
-    let finite = |(p, r): (Vec3, f32)| p.is_finite() && r.is_finite();
-    let kept = crate::threads::pool()
-        .install(|| (0..n).into_par_iter().filter(|&i| finite(point(i))).count());
-    if kept < n {
+    let finite = |p: &Vec3, r: &f32| p.is_finite() && r.is_finite();
+    let chunks = || {
+        runs.par_iter()
+            .flat_map(|(p, r)| p.par_chunks(BOX_CHUNK).zip(r.par_chunks(BOX_CHUNK)))
+    };
+    let dropped = crate::threads::pool().install(|| {
+        chunks()
+            .map(|(p, r)| p.iter().zip(r).filter(|(p, r)| !finite(p, r)).count())
+            .sum::<usize>()
+    });
+    if dropped > 0 {
         // the finite ones alone, in order
-        let pts: Vec<(Vec3, f32)> = (0..n).map(&point).filter(|&e| finite(e)).collect();
-        return box_of_finite(pts.len(), |i| pts[i]);
+        let (points, radii): (Vec<Vec3>, Vec<f32>) = runs
+            .iter()
+            .flat_map(|(p, r)| p.iter().zip(r.iter()))
+            .filter(|(p, r)| finite(p, r))
+            .map(|(p, r)| (*p, *r))
+            .unzip();
+        return box_of(&[(&points, &radii)]);
     }
-    box_of_finite(n, point)
-}
-
-/// [`box_of`] where every point and radius is finite.
-fn box_of_finite(n: usize, point: impl Fn(usize) -> (Vec3, f32) + Sync) -> Option<(Vec3, Vec3)> {
-    use rayon::prelude::*;
+    let n: usize = runs.iter().map(|(p, _)| p.len()).sum();
     if n == 0 {
         return None;
     }
+    // vertex i of the runs laid end to end (for the sample)
+    let ends: Vec<usize> = runs
+        .iter()
+        .scan(0, |n, (p, _)| {
+            *n += p.len();
+            Some(*n)
+        })
+        .collect();
+    let point = |i: usize| {
+        let k = ends.partition_point(|&e| e <= i);
+        let j = i - if k > 0 { ends[k - 1] } else { 0 };
+        (runs[k].0[j], runs[k].1[j])
+    };
     // the k-th smallest, and the median (the mean of the two middle values
     // of an even count: the lower one alone put the centre of two strands
     // at one of their ends)
@@ -219,15 +238,15 @@ fn box_of_finite(n: usize, point: impl Fn(usize) -> (Vec3, f32) + Sync) -> Optio
     // (min and max are exact: the same box in any order)
     let empty = || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     let (lo, hi) = crate::threads::pool().install(|| {
-        (0..n)
-            .into_par_iter()
-            .fold(empty, |(lo, hi), i| {
-                let (p, r) = point(i);
-                if (p - c).length() <= limit {
-                    (lo.min(p - Vec3::splat(r)), hi.max(p + Vec3::splat(r)))
-                } else {
-                    (lo, hi)
-                }
+        chunks()
+            .map(|(p, r)| {
+                p.iter().zip(r).fold(empty(), |(lo, hi), (&p, &r)| {
+                    if (p - c).length() <= limit {
+                        (lo.min(p - Vec3::splat(r)), hi.max(p + Vec3::splat(r)))
+                    } else {
+                        (lo, hi)
+                    }
+                })
             })
             .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1)))
     });

@@ -82,7 +82,17 @@ pub struct FiberCount {
 /// `resolution` (voxels along the longest side of the bounding box of the
 /// strands and card fibers, padded by two voxels); None without hair.
 pub fn grid_frame(scene: &Scene, resolution: usize) -> Option<(Vec3, f32, [usize; 3])> {
-    let (lo, hi) = crate::raster::setup::hair_box(&[&scene.strands, &scene.cards.fibers])?;
+    grid_frame_in(hair_box_of(scene)?, resolution)
+}
+
+/// The box the density grid of `scene` covers: [`crate::raster::setup::hair_box`]
+/// of its strands and card fibers.
+pub fn hair_box_of(scene: &Scene) -> Option<(Vec3, Vec3)> {
+    crate::raster::setup::hair_box(&[&scene.strands, &scene.cards.fibers])
+}
+
+/// [`grid_frame`] of the hair box `(lo, hi)` ([`hair_box_of`]).
+pub fn grid_frame_in((lo, hi): (Vec3, Vec3), resolution: usize) -> Option<(Vec3, f32, [usize; 3])> {
     if !(lo.is_finite() && hi.is_finite()) {
         return None;
     }

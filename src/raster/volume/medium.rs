@@ -171,8 +171,8 @@ pub fn mix64(mut z: u64) -> u64 {
 /// Bytes a medium of `scene` at `resolution` holds at most, before it is
 /// built: the dense slot index plus, per voxel that can hold hair (at most
 /// one per strand piece), its moments, tangents and weight.
-pub fn bytes_estimate(scene: &Scene, resolution: usize) -> usize {
-    let Some((_, voxel, dims)) = crate::raster::density::grid_frame(scene, resolution) else {
+pub fn bytes_estimate(scene: &Scene, hair: (Vec3, Vec3), resolution: usize) -> usize {
+    let Some((_, voxel, dims)) = crate::raster::density::grid_frame_in(hair, resolution) else {
         return 0;
     };
     let dense = dims[0] * dims[1] * dims[2];
@@ -193,8 +193,8 @@ pub fn bytes_estimate(scene: &Scene, resolution: usize) -> usize {
 
 /// Cells of a medium of `scene` at `resolution` (all of them: an upper
 /// bound of those that get slots).
-pub fn cells_estimate(scene: &Scene, resolution: usize) -> usize {
-    crate::raster::density::grid_frame(scene, resolution)
+pub fn cells_estimate(hair: (Vec3, Vec3), resolution: usize) -> usize {
+    crate::raster::density::grid_frame_in(hair, resolution)
         .map_or(0, |(_, _, d)| d.map(|x| x.div_ceil(FINE)).iter().product())
 }
 

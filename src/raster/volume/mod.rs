@@ -122,12 +122,13 @@ pub struct VolumeRadiance {
     pub calibration: Option<Calibration>,
 }
 
-/// Bytes the solve of `scene` with `s` needs at most (the medium, the
-/// integer tallies and the fluence, the response table), before anything
-/// is allocated.
-pub fn bytes_estimate(scene: &Scene, s: &VolumeSettings) -> usize {
-    let medium = medium::bytes_estimate(scene, s.resolution * medium::FINE);
-    let cells = medium::cells_estimate(scene, s.resolution * medium::FINE);
+/// Bytes the solve of `scene` (whose hair box is `hair`:
+/// [`crate::raster::density::hair_box_of`]) with `s` needs at most (the
+/// medium, the integer tallies and the fluence, the response table),
+/// before anything is allocated.
+pub fn bytes_estimate(scene: &Scene, hair: (glam::Vec3, glam::Vec3), s: &VolumeSettings) -> usize {
+    let medium = medium::bytes_estimate(scene, hair, s.resolution * medium::FINE);
+    let cells = medium::cells_estimate(hair, s.resolution * medium::FINE);
     let groups = match s.transport {
         VolumeTransport::Strands => trace::GROUPS,
         VolumeTransport::Medium => 1,
