@@ -64,44 +64,22 @@ const KEEP_CHUNK: usize = 8192;
 
 /// The segments whose verdict is 2, in order, copied in parallel (a
 /// head's 400 000 segments of 108 bytes, compacted in place on one thread,
-/// took 6 ms a frame): each chunk's count, then each chunk writes its
-/// kept segments at its own offset.
+/// took 6 ms a frame): chunk by chunk, each at its own place
+/// ([`crate::threads::concat_ordered`]).
 fn keep_marked(segs: &[Segment], verdict: &[u8]) -> Vec<Segment> {
-    use rayon::prelude::*;
-    let counts: Vec<usize> = crate::threads::pool().install(|| {
-        verdict
-            .par_chunks(KEEP_CHUNK)
-            .map(|v| v.iter().filter(|&&v| v == 2).count())
-            .collect()
-    });
-    let kept: usize = counts.iter().sum();
-    let mut out: Vec<Segment> = Vec::with_capacity(kept);
-    // each chunk's place in the output
-    let mut places = Vec::with_capacity(counts.len());
-    let mut rest = &mut out.spare_capacity_mut()[..kept];
-    for &n in &counts {
-        let (place, tail) = rest.split_at_mut(n);
-        places.push(place);
-        rest = tail;
-    }
-    crate::threads::pool().install(|| {
-        places
-            .into_par_iter()
-            .zip(
-                segs.par_chunks(KEEP_CHUNK)
-                    .zip(verdict.par_chunks(KEEP_CHUNK)),
-            )
-            .for_each(|(place, (s, v))| {
-                let kept = s.iter().zip(v).filter(|(_, &v)| v == 2).map(|(s, _)| *s);
-                for (slot, s) in place.iter_mut().zip(kept) {
-                    slot.write(s);
-                }
-            })
-    });
-    // SAFETY: the chunks' places tile the first `kept` slots, and each
-    // chunk wrote exactly its count of segments into its place.
-    unsafe { out.set_len(kept) };
-    out
+    let chunk = |c: usize| {
+        let r = c * KEEP_CHUNK..((c + 1) * KEEP_CHUNK).min(segs.len());
+        segs[r.clone()].iter().zip(&verdict[r])
+    };
+    crate::threads::concat_ordered(
+        segs.len().div_ceil(KEEP_CHUNK),
+        |c| chunk(c).filter(|(_, &v)| v == 2).count(),
+        |c, push| {
+            for (s, _) in chunk(c).filter(|(_, &v)| v == 2) {
+                push(*s)
+            }
+        },
+    )
 }
 
 /// Whether a sphere hides a segment (None: no sphere can). A segment is

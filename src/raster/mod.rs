@@ -463,25 +463,33 @@ fn shadow_maps(
 /// is shaded where it lies, not interpolated towards the vertex beyond it
 /// (behind the camera, so seen from the wrong side).
 fn shade_clipped_ends(segs: &mut [setup::Segment], shader: &Shader<'_>, eye: glam::Vec3) {
-    for s in segs.iter_mut().filter(|s| s.ta > 0.0 || s.tb < 1.0) {
-        let t = (s.pb - s.pa).normalize_or_zero();
-        // World segment index: strand vertices minus one per earlier strand.
-        let segment = s.i - s.strand;
-        let shade_at = |p: glam::Vec3, radius: f32| {
-            let fiber = shade::Fiber {
-                radius,
-                strand: s.strand,
-                segment,
-            };
-            shader.shade(p, t, (eye - p).normalize_or_zero(), fiber)
+    // (in parallel: each segment's ends on their own)
+    pool().install(|| {
+        segs.par_iter_mut()
+            .filter(|s| s.ta > 0.0 || s.tb < 1.0)
+            .for_each(|s| shade_clipped(s, shader, eye))
+    });
+}
+
+/// [`shade_clipped_ends`] of one segment.
+fn shade_clipped(s: &mut setup::Segment, shader: &Shader<'_>, eye: glam::Vec3) {
+    let t = (s.pb - s.pa).normalize_or_zero();
+    // World segment index: strand vertices minus one per earlier strand.
+    let segment = s.i - s.strand;
+    let shade_at = |p: glam::Vec3, radius: f32| {
+        let fiber = shade::Fiber {
+            radius,
+            strand: s.strand,
+            segment,
         };
-        let (ca, cb) = (
-            (s.ta > 0.0).then(|| shade_at(s.pa, s.ra)),
-            (s.tb < 1.0).then(|| shade_at(s.pb, s.rb)),
-        );
-        s.ca = ca.unwrap_or(s.ca);
-        s.cb = cb.unwrap_or(s.cb);
-    }
+        shader.shade(p, t, (eye - p).normalize_or_zero(), fiber)
+    };
+    let (ca, cb) = (
+        (s.ta > 0.0).then(|| shade_at(s.pa, s.ra)),
+        (s.tb < 1.0).then(|| shade_at(s.pb, s.rb)),
+    );
+    s.ca = ca.unwrap_or(s.ca);
+    s.cb = cb.unwrap_or(s.cb);
 }
 
 /// The guide map of guide-strand lighting (`g`: the settings, given guides
@@ -533,12 +541,20 @@ fn gather_from_guides(
 
 /// Which strand vertices the segments use (for per-vertex shading).
 fn vertices_used(segs: &[setup::Segment], vertex_count: usize) -> Vec<bool> {
-    let mut used = vec![false; vertex_count];
-    for s in segs {
-        used[s.i as usize] = true;
-        used[s.i as usize + 1] = true;
-    }
-    used
+    use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
+    // (in parallel: every store writes `true`, so the result is the same in
+    // any order)
+    pool().install(|| {
+        let used: Vec<AtomicBool> = (0..vertex_count)
+            .into_par_iter()
+            .map(|_| AtomicBool::new(false))
+            .collect();
+        segs.par_iter().for_each(|s| {
+            used[s.i as usize].store(true, Relaxed);
+            used[s.i as usize + 1].store(true, Relaxed);
+        });
+        used.into_par_iter().map(AtomicBool::into_inner).collect()
+    })
 }
 
 /// The tiles copied into a `width × height` image; their counters added to

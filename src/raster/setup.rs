@@ -479,19 +479,23 @@ fn guard_band(view: &View, pa: Vec3, pb: Vec3, margin: f32) -> Option<([f64; 2],
 /// Radiance at the segments' ends from the per-vertex radiance (linear
 /// between the two vertices where a segment was clipped).
 pub fn color_segments(segs: &mut [Segment], colors: &[Vec3]) {
-    for s in segs {
-        let (c0, c1) = (colors[s.i as usize], colors[s.i as usize + 1]);
-        let at = |t: f32| {
-            if t == 0.0 {
-                c0
-            } else if t == 1.0 {
-                c1
-            } else {
-                c0 + (c1 - c0) * t
-            }
-        };
-        (s.ca, s.cb) = (at(s.ta), at(s.tb));
-    }
+    use rayon::prelude::*;
+    crate::threads::pool().install(|| segs.par_iter_mut().for_each(|s| color_segment(s, colors)));
+}
+
+/// [`color_segments`] of one segment.
+fn color_segment(s: &mut Segment, colors: &[Vec3]) {
+    let (c0, c1) = (colors[s.i as usize], colors[s.i as usize + 1]);
+    let at = |t: f32| {
+        if t == 0.0 {
+            c0
+        } else if t == 1.0 {
+            c1
+        } else {
+            c0 + (c1 - c0) * t
+        }
+    };
+    (s.ca, s.cb) = (at(s.ta), at(s.tb));
 }
 
 /// A projected card triangle.
