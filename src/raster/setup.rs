@@ -148,9 +148,9 @@ pub fn hair_box(strands: &[&Strands]) -> Option<(Vec3, Vec3)> {
 }
 
 /// [`hair_box`] of points with radii.
-pub fn robust_box(pts: Vec<(Vec3, f32)>) -> Option<(Vec3, Vec3)> {
-    let (points, radii): (Vec<Vec3>, Vec<f32>) = pts.into_iter().unzip();
-    box_of(&[(&points, &radii)])
+pub fn robust_box(points: &[Vec3], radii: &[f32]) -> Option<(Vec3, Vec3)> {
+    let n = points.len().min(radii.len());
+    box_of(&[(&points[..n], &radii[..n])])
 }
 
 /// Vertices a task of [`box_of`]'s passes reads.
@@ -669,9 +669,9 @@ mod tests {
             });
         assert_eq!(whole, (lo - Vec3::splat(0.01), hi + Vec3::splat(0.01)));
         let with = |extra: Vec3| {
-            let mut v: Vec<(Vec3, f32)> = points.iter().map(|&q| (q, 0.01)).collect();
-            v.insert(n / 2, (extra, 0.01));
-            robust_box(v).unwrap()
+            let mut v = points.clone();
+            v.insert(n / 2, extra);
+            robust_box(&v, &vec![0.01; v.len()]).unwrap()
         };
         assert_eq!(with(Vec3::new(f32::NAN, 0.0, 0.0)), whole);
         assert_eq!(with(Vec3::splat(1e5)), whole);

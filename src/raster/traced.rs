@@ -169,17 +169,20 @@ impl SegmentGrid {
         // The box of the strands without outliers (a stray strand 1e18 away
         // made every cell hold all the hair), cells from the median segment
         // length (the mean took that strand's length in).
-        let (lo, hi) = super::setup::robust_box(
-            caps.iter()
-                .flat_map(|c| {
+        let (ends, radii): (Vec<Vec3>, Vec<f32>) = pool.install(|| {
+            caps.par_iter()
+                .flat_map_iter(|c| {
                     let r = c.r2.sqrt();
                     [(c.a, r), (c.a + c.u, r)]
                 })
-                .collect(),
-        )?;
-        let all_inside = caps.iter().all(|c| {
-            let (end, r) = (c.a + c.u, Vec3::splat(c.r));
-            (c.a.min(end) - r).cmpge(lo).all() && (c.a.max(end) + r).cmple(hi).all()
+                .unzip()
+        });
+        let (lo, hi) = super::setup::robust_box(&ends, &radii)?;
+        let all_inside = pool.install(|| {
+            caps.par_iter().all(|c| {
+                let (end, r) = (c.a + c.u, Vec3::splat(c.r));
+                (c.a.min(end) - r).cmpge(lo).all() && (c.a.max(end) + r).cmple(hi).all()
+            })
         });
         let (lo, hi) = (lo - Vec3::splat(spread), hi + Vec3::splat(spread));
         let mut lengths: Vec<f32> = caps.iter().map(|c| c.u.length()).collect();
