@@ -362,7 +362,11 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
         };
         let t_hit = hit.map_or(f32::INFINITY, |h| h.0);
         let mut collided = None;
-        if let Some((t_in, t_out)) = box_hit(m, o, d) {
+        // the walk through the medium: for its collisions (medium
+        // transport) and its tallies (after the first event; between the
+        // strands, a light's own flight to its first fiber has neither)
+        let walks = tr.strands.is_none() || events > 0;
+        if let Some((t_in, t_out)) = box_hit(m, o, d).filter(|_| walks) {
             let t_end = t_out.min(t_sphere).min(t_hit);
             // regular tracking, voxel by voxel (Amanatides & Woo)
             let p = (o + d * t_in - m.origin) * inv_voxel;
