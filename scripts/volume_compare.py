@@ -274,10 +274,12 @@ def cost(tmp: str, rows: list, md: list) -> None:
             "longitudinal_roughness": beta_m + 1e-4 * (1 if q == "balanced" else 2)})
         _, st_first, _ = timed(edited, quality=q, multiple_scattering="volume")
         first = st_first["volume_ms"] / 1000
-        # solves of their own (photons changed by a few, so that no earlier solve is reused), best of 3
+        # solves of their own (the preset's photons changed by a few, so that no earlier solve is
+        # reused), best of 3
+        photons = sc.options(quality=q)["volume_photons"]
         solve = np.inf
         for extra in (1, 2, 3):
-            ms = {"volume": {"photons": (1 << 18) + extra + (0 if q == "balanced" else 10)}}
+            ms = {"volume": {"photons": photons + extra + (0 if q == "balanced" else 10)}}
             _, st, _ = timed(sc, quality=q, multiple_scattering=ms)
             solve = min(solve, st["volume_ms"] / 1000)
         t_none = min(timed(sc, quality=q, multiple_scattering="none")[2] for _ in range(3))
