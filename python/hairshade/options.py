@@ -383,8 +383,8 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     },
     # the closest: 64 coverage samples (the near field's noise falls with them), and the
     # volume solved with 4x the photons (2^20 a light: relMSE against the truth lower on
-    # every ChiangHair head, 2.95e-3 from 3.59e-3 on the wavy rim-lit one, the means within
-    # 0.6%; the solve 4x longer, once per lighting; docs/photons.md)
+    # every ChiangHair head, 2.95e-3 from 3.59e-3 on the wavy rim-lit one, the means moved by
+    # at most 0.7%; the solve about 2.5x longer, once per lighting; docs/photons.md)
     "accurate": {
         "transparency": {"coverage": {"samples": 64}},
         "shadows": {"traced": {}},
