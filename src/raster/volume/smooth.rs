@@ -22,7 +22,9 @@ use rayon::prelude::*;
 /// cell) pushed the straight key-lit separated head's multiple scattering
 /// from 1.15 to 1.21 of the truth's in red, and is not used.
 ///
-/// `nb` bins per group, `groups` groups per cell.
+/// `nb` bins per group, `groups` groups per cell: a cell's rows are one
+/// contiguous block of `groups · nb` bins, and every neighbour's block is
+/// added to the cell's whole at once (one coefficient over the block).
 pub(super) fn smooth(
     m: &medium::Cells,
     fluence: &[[f32; 6]],
@@ -30,10 +32,15 @@ pub(super) fn smooth(
     groups: usize,
 ) -> Vec<[f32; 6]> {
     let d = m.dims;
+    let block = nb * groups;
+    let mut out = vec![[0.0f32; 6]; fluence.len()];
+    if block == 0 {
+        return out;
+    }
     pool().install(|| {
-        (0..m.cell_of.len())
-            .into_par_iter()
-            .flat_map_iter(|s| {
+        out.par_chunks_mut(block).enumerate().for_each_init(
+            || Vec::with_capacity(27),
+            |nbrs: &mut Vec<(usize, f32, Vec3)>, (s, rows)| {
                 let v = m.cell_of[s] as usize;
                 let (i, j, k) = (
                     (v % d[0]) as i64,
@@ -41,7 +48,7 @@ pub(super) fn smooth(
                     (v / (d[0] * d[1])) as i64,
                 );
                 // the neighbours: slot, weight, position from this cell's fibers
-                let mut nbrs: Vec<(usize, f32, Vec3)> = Vec::with_capacity(27);
+                nbrs.clear();
                 let own = m.centroid[s];
                 for dk in -1i64..=1 {
                     for dj in -1i64..=1 {
@@ -63,29 +70,24 @@ pub(super) fn smooth(
                         }
                     }
                 }
-                let l = local_linear(&nbrs);
-                let mut rows = vec![[0.0f32; 6]; nb * groups];
-                for g in 0..groups {
-                    let out = &mut rows[g * nb..(g + 1) * nb];
-                    for (&(ns, _, _), &c) in nbrs.iter().zip(&l) {
-                        let row = &fluence[(ns * groups + g) * nb..(ns * groups + g + 1) * nb];
-                        for (a, r) in out.iter_mut().zip(row) {
-                            for q in 0..6 {
-                                a[q] += c * r[q];
-                            }
-                        }
-                    }
-                    // the plane may dip below zero where the light falls off fast
-                    for a in out.iter_mut() {
-                        for q in 0..3 {
-                            a[q] = a[q].max(0.0);
-                        }
+                let l = local_linear(nbrs);
+                let acc = rows.as_flattened_mut();
+                for (&(ns, _, _), &c) in nbrs.iter().zip(&l) {
+                    let src = fluence[ns * block..(ns + 1) * block].as_flattened();
+                    for (a, x) in acc.iter_mut().zip(src) {
+                        *a += c * x;
                     }
                 }
-                rows
-            })
-            .collect()
-    })
+                // the plane may dip below zero where the light falls off fast
+                for a in rows.iter_mut() {
+                    for q in 0..3 {
+                        a[q] = a[q].max(0.0);
+                    }
+                }
+            },
+        );
+    });
+    out
 }
 
 /// The damping of [`local_linear`]'s slope, per unit weight (cells²): a

@@ -434,14 +434,18 @@ pub fn trace(tr: &Transport, photon: Photon, rng: &mut Rng) {
                 if slot != u32::MAX {
                     let s = slot as usize;
                     weight = m.weight(s);
-                    let sigma = m.sigma(s, d);
-                    if sigma * len >= tau {
-                        let tc = t + tau / sigma;
-                        run += (tc - t) * weight;
-                        collided = Some((tc, s));
-                        break;
+                    // the medium's collisions (between the strands, tau
+                    // stays infinite and the cross-section is not read)
+                    if tau < f32::INFINITY {
+                        let sigma = m.sigma(s, d);
+                        if sigma * len >= tau {
+                            let tc = t + tau / sigma;
+                            run += (tc - t) * weight;
+                            collided = Some((tc, s));
+                            break;
+                        }
+                        tau -= sigma * len;
                     }
-                    tau -= sigma * len;
                 }
                 run += len * weight;
                 t = t1;
