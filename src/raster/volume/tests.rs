@@ -242,3 +242,40 @@ fn fold_gives_the_albedo_at_random_fibers() {
     }
     assert!(raw_worst > 0.1, "{raw_worst}");
 }
+
+/// 6. Each group's row after [`others`] is the other groups' light times
+///    `groups / (groups − 1)`, and the rows' mean is the whole light (what
+///    a point of no strand reads): checked against sums written out, on
+///    two cells of four groups and three bins with distinct values; one
+///    group is left unchanged.
+#[test]
+fn each_group_reads_the_others_light() {
+    let (nb, groups) = (3usize, 4usize);
+    let value = |c: usize, g: usize, b: usize, k: usize| (1 + c * 97 + g * 13 + b * 5 + k) as f32;
+    let fluence: Vec<[f32; 6]> = (0..2 * groups * nb)
+        .map(|i| {
+            let (c, g, b) = (i / (groups * nb), (i / nb) % groups, i % nb);
+            std::array::from_fn(|k| value(c, g, b, k))
+        })
+        .collect();
+    let rows = others(fluence.clone(), nb, groups);
+    for c in 0..2 {
+        for b in 0..nb {
+            for k in 0..6 {
+                let total: f32 = (0..groups).map(|g| value(c, g, b, k)).sum();
+                let mut mean = 0.0;
+                for g in 0..groups {
+                    let got = rows[(c * groups + g) * nb + b][k];
+                    let want = (total - value(c, g, b, k)) * 4.0 / 3.0;
+                    assert!(
+                        (got - want).abs() <= 1e-5 * want,
+                        "cell {c} group {g} bin {b}: {got} {want}"
+                    );
+                    mean += got / groups as f32;
+                }
+                assert!((mean - total).abs() <= 1e-5 * total, "{mean} {total}");
+            }
+        }
+    }
+    assert_eq!(others(fluence.clone(), nb * groups, 1), fluence);
+}
