@@ -405,3 +405,28 @@ pub struct Scene {
     pub triangles: Vec<OpaqueTri>,
     pub hair: HairShading,
 }
+
+#[cfg(test)]
+impl Scene {
+    /// `strands` alone, KarisHair's defaults, no lights, a 16×16 camera
+    /// looking at the unit box from +z (for tests).
+    pub(crate) fn of_strands(strands: Strands) -> Self {
+        Self {
+            camera: Camera {
+                position: Vec3::new(0.5, 0.5, 3.0),
+                target: Vec3::splat(0.5),
+                up: Vec3::Y,
+                fov_y: 40.0,
+                width: 16,
+                height: 16,
+            },
+            lights: Vec::new(),
+            environment: None,
+            strands,
+            cards: Cards::default(),
+            spheres: Vec::new(),
+            triangles: Vec::new(),
+            hair: HairShading::Karis(crate::fiber::karis::KarisParams::default().build().unwrap()),
+        }
+    }
+}

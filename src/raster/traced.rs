@@ -660,7 +660,7 @@ const MAX_TUBE_STEPS: usize = 1 << 12;
 
 /// The bits of `v` (21 at most) spread to every third bit (a Morton code's
 /// one axis).
-fn morton3(v: u32) -> u64 {
+pub(crate) fn morton3(v: u32) -> u64 {
     let mut x = u64::from(v) & 0x1f_ffff;
     x = (x | x << 32) & 0x001f_0000_0000_ffff;
     x = (x | x << 16) & 0x001f_0000_ff00_00ff;

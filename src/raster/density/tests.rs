@@ -1,6 +1,5 @@
 use super::*;
-use crate::fiber::karis::KarisParams;
-use crate::raster::scene::{Camera, Cards, HairShading, Sphere};
+use crate::raster::scene::Sphere;
 
 /// A box [0, 1]³ of straight fibers along x, radius `r`, on a square
 /// lattice of spacing `s` in (y, z): σ(d) = 2r|x̂ × d| / s² per unit
@@ -16,27 +15,11 @@ fn lattice(r: f32, s: f32) -> Scene {
             offsets.push(points.len() as u32);
         }
     }
-    Scene {
-        camera: Camera {
-            position: Vec3::new(0.5, 0.5, 3.0),
-            target: Vec3::splat(0.5),
-            up: Vec3::Y,
-            fov_y: 40.0,
-            width: 16,
-            height: 16,
-        },
-        lights: Vec::new(),
-        environment: None,
-        strands: Strands {
-            radii: vec![r; points.len()],
-            points,
-            offsets,
-        },
-        cards: Cards::default(),
-        spheres: Vec::new(),
-        triangles: Vec::new(),
-        hair: HairShading::Karis(KarisParams::default().build().unwrap()),
-    }
+    Scene::of_strands(Strands {
+        radii: vec![r; points.len()],
+        points,
+        offsets,
+    })
 }
 
 fn count(grid: &DensityGrid, d: Vec3, p: Vec3) -> f32 {
