@@ -102,7 +102,9 @@ impl VolumeSettings {
 
 /// The multiple-scattered radiance of one lighting of one groom.
 pub struct VolumeRadiance {
-    medium: Medium,
+    /// The medium and its calibration, shared by the solves of one
+    /// geometry ([`medium_of`]).
+    medium: Arc<BuiltMedium>,
     bins: Bins,
     /// Strand groups tallied apart ([`trace::GROUPS`] under the strands
     /// transport, else 1).
@@ -164,8 +166,6 @@ impl VolumeRadiance {
     ) -> Option<Self> {
         let (scene, env) = (input.scene, input.env);
         let t0 = std::time::Instant::now();
-        let mut medium = Medium::new(scene, settings.resolution * medium::FINE)?;
-        // the medium's transmittance calibrated against the strands'
         let built;
         let grid = match input.traced {
             Some(g) => Some(g),
@@ -178,19 +178,8 @@ impl VolumeRadiance {
         // the groups their tallies keep apart
         let strands = grid.filter(|_| settings.transport == VolumeTransport::Strands);
         let groups = if strands.is_some() { trace::GROUPS } else { 1 };
-        let calibration = match (grid, strands) {
-            (_, Some(_)) => None,
-            (Some(grid), None) => Some(calibrate(&calibration_rays(
-                &medium,
-                input.segments,
-                grid,
-                CALIBRATION_RAYS,
-            ))),
-            (None, None) => Some(calibrate(&[])),
-        };
-        if let Some(c) = calibration {
-            medium.scale(c.k as f32);
-        }
+        let built_medium = medium_of(input, settings.resolution, grid, strands.is_some())?;
+        let (medium, calibration) = (&built_medium.0, built_medium.1);
         let bins = Bins {
             n: settings.bins.clamp(BINS.0, BINS.1),
         };
@@ -237,7 +226,7 @@ impl VolumeRadiance {
                 groups,
             };
             let transport = trace::Transport {
-                medium: &medium,
+                medium,
                 phase: &phase,
                 spheres: &scene.spheres,
                 tally: &tally,
@@ -314,7 +303,7 @@ impl VolumeRadiance {
         }
         let response = response_table(&scene.hair);
         Some(Self {
-            medium,
+            medium: built_medium.clone(),
             bins,
             groups,
             fluence,
@@ -327,12 +316,12 @@ impl VolumeRadiance {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.medium.bytes() + self.fluence.len() * 24 + self.response.bytes()
+        self.medium.0.bytes() + self.fluence.len() * 24 + self.response.bytes()
     }
 
     /// Occupied voxels.
     pub fn voxels(&self) -> usize {
-        self.medium.cells.cell_of.len()
+        self.medium.0.cells.cell_of.len()
     }
 
     /// The scattered light at `p` scattered once more towards the eye `v`
@@ -348,7 +337,7 @@ impl VolumeRadiance {
     /// cells a side). A point of no strand reads the mean of the rows
     /// (every group's light).
     pub fn radiance(&self, p: Vec3, t: Vec3, v: Vec3, strand: u32) -> Vec3 {
-        let m = &self.medium.cells;
+        let m = &self.medium.0.cells;
         let nb = self.bins.count();
         let (row_of, gain) = if self.groups > 1 && strand != crate::raster::shadow::NO_STRAND {
             (Some(trace::group_of(strand)), 1.0)
@@ -729,6 +718,63 @@ fn response_table(hair: &HairShading) -> Arc<response::ResponseTable> {
     keep(tables, k, t.clone(), CACHE_TABLES);
     t
 }
+
+/// A medium and, under the medium transport, its calibration against the
+/// strands (applied to it).
+type BuiltMedium = (Medium, Option<Calibration>);
+
+/// The medium of `input`'s geometry at `resolution` cells (its voxels
+/// [`medium::FINE`] times as many), built, or kept from an earlier solve
+/// of the same geometry: it depends on neither the lights nor the
+/// material, so a new light's solve reads it again. `grid`: the strands'
+/// (the calibration traces through it); `strands`: photons fly between
+/// the strands (no calibration). None without hair.
+fn medium_of(
+    input: &SolveInput,
+    resolution: usize,
+    grid: Option<&crate::raster::traced::SegmentGrid>,
+    strands: bool,
+) -> Option<Arc<BuiltMedium>> {
+    type Media = std::sync::Mutex<Vec<(u64, Arc<BuiltMedium>)>>;
+    static MEDIA: std::sync::OnceLock<Media> = std::sync::OnceLock::new();
+    let media = MEDIA.get_or_init(|| std::sync::Mutex::new(Vec::new()));
+    let key = {
+        let mut h = crate::raster::shadow::WordHash::default();
+        h.word(input.geometry);
+        h.word(resolution as u64);
+        h.word(strands as u64);
+        h.finish()
+    };
+    // (geometry 0: no key was computed, nothing is kept)
+    if input.geometry != 0 {
+        if let Some(m) = kept(media, &key) {
+            return Some(m);
+        }
+    }
+    let mut medium = Medium::new(input.scene, resolution * medium::FINE)?;
+    // the medium's transmittance calibrated against the strands'
+    let calibration = match (grid, strands) {
+        (_, true) => None,
+        (Some(grid), false) => Some(calibrate(&calibration_rays(
+            &medium,
+            input.segments,
+            grid,
+            CALIBRATION_RAYS,
+        ))),
+        (None, false) => Some(calibrate(&[])),
+    };
+    if let Some(c) = calibration {
+        medium.scale(c.k as f32);
+    }
+    let built = Arc::new((medium, calibration));
+    if input.geometry != 0 {
+        keep(media, key, built.clone(), CACHE_MEDIA);
+    }
+    Some(built)
+}
+
+/// Media kept at once.
+const CACHE_MEDIA: usize = 1;
 
 type Entry = (u64, Arc<VolumeRadiance>);
 

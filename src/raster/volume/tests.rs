@@ -282,3 +282,67 @@ fn each_group_reads_the_others_light() {
     others(&mut one, nb * groups, 1);
     assert_eq!(one, fluence);
 }
+
+/// 7. A new light's solve reads the medium an earlier solve of the same
+///    geometry built (it depends on neither lights nor material), and
+///    gives what a solve that builds its own gives: two solves of one
+///    groom under different lights share one medium; a third, without a
+///    geometry key (nothing kept), builds another, and its fluence equals
+///    the second's bit for bit. Both transports.
+#[test]
+fn a_new_light_reads_the_kept_medium() {
+    let mut st = 0x51_7cc1_b727_220au64;
+    let mut u = || {
+        st = medium::mix64(st);
+        (st >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let (mut points, mut offsets) = (Vec::new(), vec![0u32]);
+    for _ in 0..400 {
+        let mut p = Vec3::new(u(), u(), u());
+        for _ in 0..8 {
+            points.push(p);
+            p += 0.08 * (Vec3::new(u(), u(), u()) - 0.5);
+        }
+        offsets.push(points.len() as u32);
+    }
+    let mut scene = Scene::of_strands(crate::raster::scene::Strands {
+        radii: vec![0.004; points.len()],
+        points,
+        offsets,
+    });
+    let light = |y: f32| Light::Directional {
+        direction: Vec3::new(0.3, y, 0.5),
+        intensity: Vec3::ONE,
+        shadows: true,
+    };
+    let segments = crate::raster::setup::world_segments(&scene.strands);
+    let geometry = crate::raster::shadow::geometry_hash(&scene);
+    for transport in [VolumeTransport::Strands, VolumeTransport::Medium] {
+        let settings = VolumeSettings {
+            resolution: 12,
+            photons: 4096,
+            bins: 4,
+            transport,
+        };
+        let solve = |scene: &Scene, geometry: u64| {
+            let input = SolveInput {
+                scene,
+                geometry,
+                segments: &segments,
+                traced: None,
+                env: None,
+            };
+            VolumeRadiance::solve(&input, settings, None, None).unwrap()
+        };
+        scene.lights = vec![light(1.0)];
+        let a = solve(&scene, geometry);
+        scene.lights = vec![light(-0.4)];
+        let b = solve(&scene, geometry);
+        let c = solve(&scene, 0);
+        assert!(Arc::ptr_eq(&a.medium, &b.medium), "{transport:?}");
+        assert!(!Arc::ptr_eq(&b.medium, &c.medium), "{transport:?}");
+        assert!(b.fluence.iter().any(|f| f[0] > 0.0), "{transport:?}");
+        assert_eq!(b.fluence, c.fluence, "{transport:?}");
+        assert_ne!(a.fluence, b.fluence, "{transport:?}");
+    }
+}
