@@ -212,10 +212,7 @@ impl SegmentGrid {
         pool.install(|| {
             caps.par_sort_by_cached_key(|c| {
                 let [x, y, z] = cell_of(c.a + 0.5 * c.u);
-                (
-                    morton3(x as u32) | morton3(y as u32) << 1 | morton3(z as u32) << 2,
-                    c.segment,
-                )
+                (morton_code([x, y, z].map(|a| a as u32)), c.segment)
             })
         });
         let mut capsule_of = vec![u32::MAX; segments.len()];
@@ -660,7 +657,7 @@ const MAX_TUBE_STEPS: usize = 1 << 12;
 
 /// The bits of `v` (21 at most) spread to every third bit (a Morton code's
 /// one axis).
-pub(crate) fn morton3(v: u32) -> u64 {
+fn morton3(v: u32) -> u64 {
     let mut x = u64::from(v) & 0x1f_ffff;
     x = (x | x << 32) & 0x001f_0000_0000_ffff;
     x = (x | x << 16) & 0x001f_0000_ff00_00ff;
@@ -668,6 +665,12 @@ pub(crate) fn morton3(v: u32) -> u64 {
     x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
     x = (x | x << 2) & 0x1249_2492_4924_9249;
     x
+}
+
+/// The Morton code of grid coordinates (21 bits each at most): their
+/// bits interleaved, x lowest.
+pub(crate) fn morton_code([x, y, z]: [u32; 3]) -> u64 {
+    morton3(x) | morton3(y) << 1 | morton3(z) << 2
 }
 
 #[cfg(test)]

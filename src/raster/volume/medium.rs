@@ -94,6 +94,19 @@ fn empty_distance(hair: impl Fn(usize) -> bool, dims: [usize; 3]) -> Vec<u8> {
     f
 }
 
+/// The Morton code of dense cell index `n` on a grid of `dims` cells.
+fn morton_of_cell(n: u32, dims: [usize; 3]) -> u64 {
+    let n = n as usize;
+    crate::raster::traced::morton_code(
+        [
+            n % dims[0],
+            (n / dims[0]) % dims[1],
+            n / (dims[0] * dims[1]),
+        ]
+        .map(|a| a as u32),
+    )
+}
+
 /// The grid the light is tallied on: [`FINE`] medium voxels a side per
 /// cell, a cell for every cell holding hair.
 pub struct Cells {
@@ -293,11 +306,7 @@ impl Medium {
                 c.cell_of.push(n as u32);
             }
         }
-        c.cell_of.sort_unstable_by_key(|&n| {
-            let n = n as usize;
-            let m = |x: usize| crate::raster::traced::morton3(x as u32);
-            m(n % cd[0]) | m((n / cd[0]) % cd[1]) << 1 | m(n / (cd[0] * cd[1])) << 2
-        });
+        c.cell_of.sort_unstable_by_key(|&n| morton_of_cell(n, cd));
         for (s, &n) in c.cell_of.iter().enumerate() {
             c.slot[n as usize] = s as u32;
         }
@@ -327,8 +336,7 @@ impl Medium {
             s[1] = if s[0] == u32::MAX {
                 u32::MAX
             } else {
-                let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
-                c.slot[((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE]
+                c.slot[cell_of_voxel(v as u32)]
             };
         }
     }
@@ -490,6 +498,38 @@ impl Medium {
     }
 }
 
+/// `count` random walks of `points` points each in the unit box (their
+/// steps up to `step / 2` along each axis, clamped to the box), of radius
+/// `radius`, from the seed `seed` (for tests).
+#[cfg(test)]
+pub(super) fn random_strands(
+    seed: u64,
+    count: usize,
+    points: usize,
+    step: f32,
+    radius: f32,
+) -> Strands {
+    let mut st = seed;
+    let mut u = || {
+        st = mix64(st);
+        (st >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let (mut pts, mut offsets) = (Vec::new(), vec![0u32]);
+    for _ in 0..count {
+        let mut p = Vec3::new(u(), u(), u());
+        for _ in 0..points {
+            pts.push(p);
+            p = (p + step * (Vec3::new(u(), u(), u()) - 0.5)).clamp(Vec3::ZERO, Vec3::ONE);
+        }
+        offsets.push(pts.len() as u32);
+    }
+    Strands {
+        radii: vec![radius; pts.len()],
+        points: pts,
+        offsets,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -541,35 +581,10 @@ mod tests {
     ///    strands in a unit box, 24 voxels a side).
     #[test]
     fn cells_follow_the_morton_curve() {
-        use crate::raster::scene::Strands;
-        let mut st = 0x2545_f491_4f6c_dd1du64;
-        let mut u = || {
-            st = mix64(st);
-            (st >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let (mut points, mut offsets) = (Vec::new(), vec![0u32]);
-        for _ in 0..300 {
-            let mut p = Vec3::new(u(), u(), u());
-            for _ in 0..6 {
-                points.push(p);
-                p = (p + 0.1 * (Vec3::new(u(), u(), u()) - 0.5)).clamp(Vec3::ZERO, Vec3::ONE);
-            }
-            offsets.push(points.len() as u32);
-        }
-        let scene = Scene::of_strands(Strands {
-            radii: vec![0.002; points.len()],
-            points,
-            offsets,
-        });
+        let scene = Scene::of_strands(random_strands(0x2545_f491_4f6c_dd1d, 300, 6, 0.1, 0.002));
         let m = Medium::new(&scene, 24).unwrap();
         let c = &m.cells;
-        let key = |n: u32| {
-            let n = n as usize;
-            let k = |x: usize| crate::raster::traced::morton3(x as u32);
-            k(n % c.dims[0])
-                | k((n / c.dims[0]) % c.dims[1]) << 1
-                | k(n / (c.dims[0] * c.dims[1])) << 2
-        };
+        let key = |n: u32| morton_of_cell(n, c.dims);
         assert!(c.cell_of.len() > 100, "{} cells", c.cell_of.len());
         for (s, &n) in c.cell_of.iter().enumerate() {
             assert_eq!(c.slot[n as usize], s as u32);

@@ -291,25 +291,13 @@ fn each_group_reads_the_others_light() {
 ///    the second's bit for bit. Both transports.
 #[test]
 fn a_new_light_reads_the_kept_medium() {
-    let mut st = 0x51_7cc1_b727_220au64;
-    let mut u = || {
-        st = medium::mix64(st);
-        (st >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let (mut points, mut offsets) = (Vec::new(), vec![0u32]);
-    for _ in 0..400 {
-        let mut p = Vec3::new(u(), u(), u());
-        for _ in 0..8 {
-            points.push(p);
-            p += 0.08 * (Vec3::new(u(), u(), u()) - 0.5);
-        }
-        offsets.push(points.len() as u32);
-    }
-    let mut scene = Scene::of_strands(crate::raster::scene::Strands {
-        radii: vec![0.004; points.len()],
-        points,
-        offsets,
-    });
+    let mut scene = Scene::of_strands(medium::random_strands(
+        0x51_7cc1_b727_220a,
+        400,
+        8,
+        0.08,
+        0.004,
+    ));
     let light = |y: f32| Light::Directional {
         direction: Vec3::new(0.3, y, 0.5),
         intensity: Vec3::ONE,

@@ -234,10 +234,11 @@ pub struct Tally<'a> {
 pub const GROUPS: usize = 4;
 
 /// The group of `strand` (a hash, so that neighbouring strands of a clump
-/// fall in any group): the hash's top two bits.
+/// fall in any group): the hash's top log2([`GROUPS`]) bits.
 #[inline]
 pub fn group_of(strand: u32) -> usize {
-    (mix64(strand as u64 ^ 0x9E37_79B9) >> 62) as usize
+    const { assert!(GROUPS.is_power_of_two() && GROUPS > 1) };
+    (mix64(strand as u64 ^ 0x9E37_79B9) >> (64 - GROUPS.ilog2())) as usize
 }
 
 /// Words per voxel and bin: RGB, then the weighted direction.
