@@ -366,7 +366,7 @@ PRESETS: Dict[str, Dict[str, Any]] = {
         "multiple_scattering": {"karis": "karis", "chiang": "none", "deon": "none"},
         "shading": "vertex",
     },
-    # the best error per second: 16 coverage samples, traced shadows (decided at the strand
+    # the best error per second: 16 coverage samples (32 for ChiangHair, below), traced shadows (decided at the strand
     # vertices where a segment's two ends agree: the demo head 1.2x faster at 1280x720, relMSE
     # 2.5e-4 against per-fragment rays; ChiangHair's near field keeps its own probes), multiple
     # scattering through the volume (ChiangHair) or dual scattering (KarisHair), its slowly
@@ -374,10 +374,18 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     # tenth of the strands (docs/guides.md, guides_held_out.md: 1.1-1.7x faster at 320x180,
     # the error against the truth within 4.4% of itself on the dense and held-out heads, the
     # mean within 0.6%)
+    # ChiangHair takes 32 coverage samples: each sample also samples its fiber's offset h for the
+    # near field, whose noise then dominates (relMSE against the truth at 16 -> 32 samples:
+    # ginger_two 5.2e-3 -> 3.1e-3, wavy_ginger_back 5.4e-3 -> 2.5e-3, wavy_black_env 7.1e-3 ->
+    # 4.1e-3; the frame about 1.2x longer); the volume is solved with 2^16 photons a light on
+    # 6 x 6 direction bins (the solve 3x shorter than 2^18 on 8 x 8; at 32 samples the same 12
+    # of 13 ChiangHair heads within relMSE 5e-3 and 10% per channel: docs/volume.md)
     "balanced": {
-        "transparency": {"coverage": {"samples": 16}},
+        "transparency": {"karis": {"coverage": {"samples": 16}}, "chiang": {"coverage": {"samples": 32}},
+                         "deon": {"coverage": {"samples": 16}}},
         "shadows": {"traced": {"vertices": True}},
-        "multiple_scattering": {"karis": "dual", "chiang": "volume", "deon": "none"},
+        "multiple_scattering": {"karis": "dual", "chiang": {"volume": {"photons": 1 << 16, "bins": 6}},
+                                "deon": "none"},
         "shading": "split",
         "guides": 0.1,
     },
@@ -614,11 +622,18 @@ def markdown() -> str:
     for f in _fields_of(RenderSettings, ""):
         note = f" Only where it applies: {f.applies.why}." if f.applies else ""
         lines.append(f"| `{f.path}` | {rng(f.native, f.type)} | {f.doc}.{note} |")
-    lines += ["", "## Presets", "", "| quality | transparency | shadows | multiple scattering (KarisHair / ChiangHair / "
-              "DEonHair) | shading | lod | guides |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    lines += ["", "## Presets", "", "A setting with three values is per model: KarisHair / ChiangHair / DEonHair.", "",
+              "| quality | transparency | shadows | multiple scattering | shading | lod | guides |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
+
+    def per_model(v: Any) -> str:
+        if isinstance(v, Mapping) and set(v) == {"karis", "chiang", "deon"}:
+            return " / ".join(m if isinstance(m, str) else f"`{m}`" for m in v.values())
+        return v if isinstance(v, str) else f"`{v}`"
+
     for q, p in PRESETS.items():
-        ms = " / ".join(m if isinstance(m, str) else f"`{m}`" for m in p["multiple_scattering"].values())
-        lines.append(f"| `{q}` | `{p['transparency']}` | `{p['shadows']}` | {ms} | {p.get('shading', 'pixel')} | "
+        lines.append(f"| `{q}` | {per_model(p['transparency'])} | {per_model(p['shadows'])} | "
+                     f"{per_model(p['multiple_scattering'])} | {p.get('shading', 'pixel')} | "
                      f"{p.get('lod', 1.0)} | {p.get('guides', 1.0)} |")
     return "\n".join(lines) + "\n"
 
