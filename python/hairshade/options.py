@@ -348,6 +348,9 @@ def _group_doc(group: str) -> str:
 
 # -- presets -------------------------------------------------------------------------
 
+#: The hair models (a scene's ``hair.material.model``), in the order a per-model preset lists them.
+MODELS: Tuple[str, ...] = ("karis", "chiang", "deon")
+
 #: The presets, chosen by measurement (docs/quality.md, `scripts/quality_table.py`).
 #: Per model where the model decides: DEonHair takes no multiple
 #: scattering, KarisHair's own term stands in where the cost of the others is
@@ -627,8 +630,8 @@ def markdown() -> str:
               "| --- | --- | --- | --- | --- | --- | --- |"]
 
     def per_model(v: Any) -> str:
-        if isinstance(v, Mapping) and set(v) == {"karis", "chiang", "deon"}:
-            return " / ".join(m if isinstance(m, str) else f"`{m}`" for m in v.values())
+        if isinstance(v, Mapping) and set(v) == set(MODELS):
+            return " / ".join(per_model(v[m]) for m in MODELS)
         return v if isinstance(v, str) else f"`{v}`"
 
     for q, p in PRESETS.items():

@@ -152,7 +152,7 @@ class Scene:
         model = m.pop("model", None)
         from .deon import DEonHair
 
-        if model not in ("karis", "chiang", "deon"):
+        if model not in options.MODELS:
             raise SceneError(f"{self.source}: hair.material.model: expected 'karis', 'chiang' or 'deon', got {model!r:.80}")
         try:
             self.hair = {"karis": KarisHair, "chiang": ChiangHair, "deon": DEonHair}[model](**m)
@@ -707,7 +707,7 @@ def _parse(d: Any, base_dir: str, source: str,
 
     mat = dict(c.obj(hair.get("material", {"model": "karis"}), "hair.material"))
     model = mat.get("model", "karis")
-    if model not in ("karis", "chiang", "deon"):
+    if model not in options.MODELS:
         c.fail("hair.material.model", f"expected 'karis', 'chiang' or 'deon', got {model!r}")
     mat["model"] = model
 
