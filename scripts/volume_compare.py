@@ -297,17 +297,17 @@ def cost(tmp: str, rows: list, md: list) -> None:
            "| preset | curve | solve s (per light) | frame without MS s | frame, solve reused s | ratio "
            "| first solve of a material s | first solve of a groom s |",
            "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    hair = json.loads((DENSE / f"{name}.json").read_text())["hair"]
+    beta_m, seed = hair["material"]["longitudinal_roughness"], hair["generate"]["seed"]
     for k, (q, curve) in enumerate((("balanced", None), ("accurate", None), ("balanced", TRUTH_CURVE))):
         label = "B-spline, 8 px" if curve else "polyline"
         sc = scene_without_settings(DENSE / f"{name}.json", tmp, curve=curve)
         # a material of its own (roughness changed in the fourth digit), so that its table is built
-        beta_m = json.loads((DENSE / f"{name}.json").read_text())["hair"]["material"]["longitudinal_roughness"]
         edited = scene_without_settings(DENSE / f"{name}.json", tmp, {
             "longitudinal_roughness": beta_m + 1e-4 * (k + 1)}, curve=curve)
         _, st_first, _ = timed(edited, quality=q, multiple_scattering="volume")
         first = st_first["volume_ms"] / 1000
         # a groom of its own (the generator's seed changed), so that its medium is built
-        seed = json.loads((DENSE / f"{name}.json").read_text())["hair"]["generate"]["seed"]
         regroomed = scene_without_settings(DENSE / f"{name}.json", tmp, generate={"seed": seed + k + 1},
                                            curve=curve)
         _, st_groom, _ = timed(regroomed, quality=q, multiple_scattering="volume")
