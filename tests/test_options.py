@@ -235,3 +235,17 @@ def test_09_cli_settings(tmp_path):
     r = subprocess.run([sys.executable, "-m", "hairshade", "render", str(path), "-o", str(tmp_path / "b.exr"),
                         "--set", "transparency.mlab.samples=4"], capture_output=True, text=True, timeout=300)
     assert r.returncode != 0 and "render.transparency.mlab.samples: does not apply" in r.stderr, r.stderr
+
+
+def test_10_an_unknown_hair_model_is_refused_naming_every_model():
+    """A scene file's unknown model, and a loaded scene's material changed to one, are refused with
+    the same list of models, spelt from `options.MODELS` (so a new model is listed where it is defined)."""
+    d = _scene_dict()
+    d["hair"]["material"] = {"model": "marschner"}
+    listed = " or ".join([", ".join(repr(m) for m in options.MODELS[:-1]), repr(options.MODELS[-1])])
+    with pytest.raises(hs.SceneError, match=f"hair.material.model: expected {listed}, got 'marschner'"):
+        hs.Scene.from_dict(d)
+    sc = hs.Scene.from_dict(_scene_dict())
+    sc.material = {"model": "marschner"}
+    with pytest.raises(hs.SceneError, match=f"hair.material.model: expected {listed}, got 'marschner'"):
+        sc.check()

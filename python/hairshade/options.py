@@ -351,6 +351,12 @@ def _group_doc(group: str) -> str:
 #: The hair models (a scene's ``hair.material.model``), in the order a per-model preset lists them.
 MODELS: Tuple[str, ...] = ("karis", "chiang", "deon")
 
+
+def models_text() -> str:
+    """The hair models as an error message lists them: "'karis', 'chiang' or 'deon'"."""
+    quoted = [repr(m) for m in MODELS]
+    return ", ".join(quoted[:-1]) + " or " + quoted[-1]
+
 #: The presets, chosen by measurement (docs/quality.md, `scripts/quality_table.py`).
 #: Per model where the model decides: DEonHair takes no multiple
 #: scattering, KarisHair's own term stands in where the cost of the others is
