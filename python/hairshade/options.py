@@ -357,6 +357,7 @@ def models_text() -> str:
     quoted = [repr(m) for m in MODELS]
     return ", ".join(quoted[:-1]) + " or " + quoted[-1]
 
+
 #: The presets, chosen by measurement (docs/quality.md, `scripts/quality_table.py`).
 #: Per model where the model decides: DEonHair takes no multiple
 #: scattering, KarisHair's own term stands in where the cost of the others is
