@@ -219,7 +219,7 @@ def furnace(tmp: str, rows: list, md: list, quick: bool) -> None:
     for label, ms, _ in configs:
         img = hs.render(sc, W, H, quality="accurate", multiple_scattering=ms)
         images[label] = img.mean(-1)
-        v = img.mean(-1)[mask]
+        v = images[label][mask]
         within = 100 * np.mean(np.abs(v - 1) < 0.02)
         p5, p95 = np.percentile(v, [5, 95])
         bad = int((~np.isfinite(img)).sum())
@@ -236,7 +236,7 @@ def furnace(tmp: str, rows: list, md: list, quick: bool) -> None:
            "agree across photon counts, the spread is a bias of the method, not the photons' noise.", "",
            "| photons | " + " | ".join(f"single {a:.1f}-{min(b, 1.0):.1f}" for a, b in zip(edges, edges[1:])) + " |",
            "| --- |" + " --- |" * (len(edges) - 1)]
-    for label, _, photons in configs[2:]:
+    for label, _, photons in (c for c in configs if c[2]):
         ms_part = images[label][mask] - single
         cells = []
         for a, b in zip(edges, edges[1:]):
