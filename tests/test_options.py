@@ -5,6 +5,7 @@ the scene file; old flat keys translate; the presets resolve per model."""
 from __future__ import annotations
 
 import copy
+import re
 import warnings
 from typing import Any, get_args, get_type_hints
 
@@ -93,7 +94,8 @@ def test_02_model_and_scene_conditions_are_checked_at_load(model, environment, r
 # 03: unknown keys and methods, and out-of-range values, name the setting
 @pytest.mark.parametrize("render, words", [
     ({"qualty": "fast"}, "render.qualty: unknown render setting"),
-    ({"quality": "best"}, "render.quality: expected 'fast' or 'balanced' or 'accurate'"),
+    ({"quality": "best"}, "render.quality: expected 'fast', 'balanced' or 'accurate'"),
+    ({"transparency": "opaque"}, "render.transparency: expected 'mlab', 'sorted' or 'coverage', got 'opaque'"),
     ({"transparency": {"coverage": {"sample": 4}}}, "render.transparency.coverage.sample: unknown option"),
     ({"transparency": {"mlab": {}, "sorted": {}}}, "render.transparency: expected one method"),
     ({"shadows": "deep"}, "render.shadows: expected"),
@@ -249,3 +251,15 @@ def test_10_an_unknown_hair_model_is_refused_naming_every_model():
     sc.material = {"model": "marschner"}
     with pytest.raises(hs.SceneError, match=f"hair.material.model: expected {listed}, got 'marschner'"):
         sc.check()
+
+
+def test_11_allowed_values_are_listed_one_way():
+    """Error messages and the settings reference list allowed values alike: two joined by "or",
+    three or more by commas and a final "or"."""
+    assert options.choices_text(["pixel"]) == "'pixel'"
+    assert options.choices_text(["medium", "strands"]) == "'medium' or 'strands'"
+    assert options.choices_text(["pixel", "split", "vertex"]) == "'pixel', 'split' or 'vertex'"
+    assert options.choices_text([]) == ""
+    reference = options.markdown()
+    assert "| `shading` | 'pixel', 'split' or 'vertex' |" in reference
+    assert not re.search(r"'[\w.]+' or '[\w.]+' or '", reference)

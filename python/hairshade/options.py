@@ -41,8 +41,8 @@ from __future__ import annotations
 import functools
 import warnings
 from dataclasses import dataclass
-from typing import (Annotated, Any, Callable, Dict, List, Literal, Mapping, Sequence, Tuple, TypedDict, Union,
-                    get_args, get_origin, get_type_hints)
+from typing import (Annotated, Any, Callable, Dict, Iterable, List, Literal, Mapping, Sequence, Tuple, TypedDict,
+                    Union, get_args, get_origin, get_type_hints)
 
 from ._errors import SceneError
 
@@ -352,10 +352,16 @@ def _group_doc(group: str) -> str:
 MODELS: Tuple[str, ...] = ("karis", "chiang", "deon")
 
 
+def choices_text(names: Iterable[str]) -> str:
+    """Allowed values as error messages and the settings reference list
+    them: "'a'", "'a' or 'b'", "'a', 'b' or 'c'" ("" for none)."""
+    quoted = [f"'{n}'" for n in names]
+    return " or ".join(quoted) if len(quoted) < 3 else ", ".join(quoted[:-1]) + " or " + quoted[-1]
+
+
 def models_text() -> str:
     """The hair models as an error message lists them: "'karis', 'chiang' or 'deon'"."""
-    quoted = [repr(m) for m in MODELS]
-    return ", ".join(quoted[:-1]) + " or " + quoted[-1]
+    return choices_text(MODELS)
 
 
 #: The presets, chosen by measurement (docs/quality.md, `scripts/quality_table.py`).
@@ -446,7 +452,7 @@ def _fail(path: str, msg: str) -> SceneError:
 def _method_of(value: Any, group: str) -> Tuple[str, Dict[str, Any]]:
     """(method, its options) of a group's value: a name or {name: {options}}."""
     methods = GROUPS[group][1]
-    names = " or ".join(repr(m) for m in methods)
+    names = choices_text(methods)
     if isinstance(value, str):
         if value not in methods:
             raise _fail(group, f"expected {names}, got {value!r:.80}")
@@ -550,7 +556,7 @@ def resolve(settings: Mapping[str, Any], model: str, environment: bool) -> Dict[
             raise _fail(str(k), f"unknown render setting (allowed: {', '.join(sorted(known))})")
     quality = s.get("quality", DEFAULT_QUALITY)
     if quality not in QUALITIES:
-        raise _fail("quality", f"expected {' or '.join(map(repr, QUALITIES))}, got {quality!r:.80}")
+        raise _fail("quality", f"expected {choices_text(QUALITIES)}, got {quality!r:.80}")
     preset = PRESETS[quality]
     chosen: Dict[str, Tuple[str, Dict[str, Any], Dict[str, Any]]] = {}  # group -> (method, preset's, user's)
     for group in GROUPS:
@@ -623,7 +629,7 @@ def markdown() -> str:
             return f"{lo:g} to {hi:g}"
         if typ is bool:
             return "true/false"
-        return " or ".join(f"'{a}'" for a in get_args(typ) if isinstance(a, str))
+        return choices_text(a for a in get_args(typ) if isinstance(a, str))
 
     lines.append(f"| `quality` | {' / '.join(QUALITIES)} | {_group_doc('quality')} |")
     for group, (_, methods) in GROUPS.items():
