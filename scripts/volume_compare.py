@@ -244,7 +244,8 @@ def furnace(tmp: str, rows: list, md: list, quick: bool) -> None:
            "pixels' spread about them is partly noise (below).", "",
            "| photons | " + " | ".join(f"single {a:.1f}-{min(b, 1.0):.1f}" for a, b in zip(edges, edges[1:])) + " |",
            "| --- |" + " --- |" * (len(edges) - 1)]
-    for label, _, photons in (c for c in configs if c[2]):
+    volumes = [c for c in configs if c[2]]
+    for label, _, photons in volumes:
         ms_part = images[label][mask] - single
         cells = []
         for a, b in zip(edges, edges[1:]):
@@ -253,7 +254,7 @@ def furnace(tmp: str, rows: list, md: list, quick: bool) -> None:
                          if sel.any() else "–")
         md.append(f"| 2^{photons} | " + " | ".join(cells) + " |")
     md.append("")
-    furnace_parts(sc, mask, images, [c for c in configs if c[2]], md)
+    furnace_parts(sc, mask, images, volumes, md)
 
 
 def furnace_parts(sc: hs.Scene, mask: np.ndarray, images: dict, volumes: list, md: list) -> None:

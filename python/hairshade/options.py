@@ -359,11 +359,6 @@ def choices_text(names: Iterable[str]) -> str:
     return " or ".join(quoted) if len(quoted) < 3 else ", ".join(quoted[:-1]) + " or " + quoted[-1]
 
 
-def models_text() -> str:
-    """The hair models as an error message lists them: "'karis', 'chiang' or 'deon'"."""
-    return choices_text(MODELS)
-
-
 #: The presets, chosen by measurement (docs/quality.md, `scripts/quality_table.py`).
 #: Per model where the model decides: DEonHair takes no multiple
 #: scattering, KarisHair's own term stands in where the cost of the others is

@@ -153,7 +153,7 @@ class Scene:
         from .deon import DEonHair
 
         if model not in options.MODELS:
-            raise SceneError(f"{self.source}: hair.material.model: expected {options.models_text()}, got {model!r:.80}")
+            raise SceneError(f"{self.source}: hair.material.model: expected {options.choices_text(options.MODELS)}, got {model!r:.80}")
         try:
             self.hair = {"karis": KarisHair, "chiang": ChiangHair, "deon": DEonHair}[model](**m)
         except (TypeError, ValueError) as e:
@@ -708,7 +708,7 @@ def _parse(d: Any, base_dir: str, source: str,
     mat = dict(c.obj(hair.get("material", {"model": "karis"}), "hair.material"))
     model = mat.get("model", "karis")
     if model not in options.MODELS:
-        c.fail("hair.material.model", f"expected {options.models_text()}, got {model!r}")
+        c.fail("hair.material.model", f"expected {options.choices_text(options.MODELS)}, got {model!r}")
     mat["model"] = model
 
     spheres = []
