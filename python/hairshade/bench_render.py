@@ -427,6 +427,7 @@ def _skips(fast: bool, repeats: int, head: dict[str, Any]) -> list[dict[str, Any
         ("frustum_culling (close-up, per-pixel shading)", s_close, {}, (), ("frustum_culling",)),
         ("backface_culling (head as a closed 20k-triangle mesh)", s_meshed, {}, (), ("backface_culling",)),
         ("opaque_culling (hair behind the head)", s, {}, (), ("opaque_culling",)),
+        ("vertices_on_demand (per-vertex shading, hair behind hair)", s, {}, (), ("vertices_on_demand",)),
         ("nearest_first (coverage 16, traced shadows, dual)", s,
          dict(transparency={"coverage": {"samples": 16}}, shadows="traced", multiple_scattering="dual",
               shading="split"), (), ("nearest_first",)),

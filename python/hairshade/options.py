@@ -436,8 +436,8 @@ _FLAT: Dict[str, Tuple[str, str | None]] = {
     "sphere_bounce": ("multiple_scattering", "sphere_bounce"),
 }
 #: The exact speed-ups: not settings (they never change an image).
-SPEEDUPS: Tuple[str, ...] = ("frustum_culling", "backface_culling", "opaque_culling", "nearest_first",
-                             "skip_unused", "reuse_shadow_maps")
+SPEEDUPS: Tuple[str, ...] = ("frustum_culling", "backface_culling", "opaque_culling", "vertices_on_demand",
+                             "nearest_first", "skip_unused", "reuse_shadow_maps")
 
 
 def _fail(path: str, msg: str) -> SceneError:

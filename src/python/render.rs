@@ -386,6 +386,7 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
         frustum_culling: r.flag("frustum_culling", def.frustum_culling)?,
         backface_culling: r.flag("backface_culling", def.backface_culling)?,
         opaque_culling: r.flag("opaque_culling", def.opaque_culling)?,
+        vertices_on_demand: r.flag("vertices_on_demand", def.vertices_on_demand)?,
         nearest_first: r.flag("nearest_first", def.nearest_first)?,
         skip_unused: r.flag("skip_unused", def.skip_unused)?,
         reuse_shadow_maps: r.flag("reuse_shadow_maps", def.reuse_shadow_maps)?,
@@ -479,6 +480,7 @@ fn options_dict<'py>(
     d.set_item("frustum_culling", o.frustum_culling)?;
     d.set_item("backface_culling", o.backface_culling)?;
     d.set_item("opaque_culling", o.opaque_culling)?;
+    d.set_item("vertices_on_demand", o.vertices_on_demand)?;
     d.set_item("nearest_first", o.nearest_first)?;
     d.set_item("skip_unused", o.skip_unused)?;
     d.set_item("reuse_shadow_maps", o.reuse_shadow_maps)?;

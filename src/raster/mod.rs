@@ -57,7 +57,7 @@ pub mod volume;
 use crate::threads::pool;
 use bin::{bin_in_order, bin_to_tiles, segment_tiles, triangle_tiles, TileGrid, TILE};
 use rayon::prelude::*;
-use scene::{RenderOptions, Scene};
+use scene::{RenderOptions, Scene, Transparency};
 use shade::Shader;
 use shadow::ShadowMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -309,14 +309,28 @@ pub fn render_with_progress(
         &view,
     );
     stats.culled_behind_opaque += dropped;
-    if opts.vertex_shading {
+    let all_from_guides = guide_map
+        .as_ref()
+        .filter(|_| opts.guides.terms == guides::GuideTerms::All);
+    // Per-vertex shading on demand: each vertex shaded when a tile first
+    // draws a fragment next to it (`shade::VertexColors`), where the
+    // tiles add strand fragments to layers (not coverage samples) and
+    // every vertex is shaded on its own (not gathered from guides).
+    let on_demand = (opts.vertex_shading
+        && opts.vertices_on_demand
+        && all_from_guides.is_none()
+        && !matches!(opts.transparency, Transparency::Coverage(_)))
+    .then(|| shade::VertexColors::new(&scene.strands, &shader, view.eye));
+    if on_demand.is_some() {
+        let tv = std::time::Instant::now();
+        // (a clipped end is shaded where it lies; the vertices in the tiles)
+        shade_clipped_ends(&mut segs, &shader, view.eye);
+        stats.vertex_ms = ms(tv);
+    } else if opts.vertex_shading {
         let tv = std::time::Instant::now();
         let used = opts
             .frustum_culling
             .then(|| vertices_used(&segs, scene.strands.points.len()));
-        let all_from_guides = guide_map
-            .as_ref()
-            .filter(|_| opts.guides.terms == guides::GuideTerms::All);
         let colors = match all_from_guides {
             Some(g) => {
                 let needed = g.needed(used.as_deref());
@@ -384,6 +398,7 @@ pub fn render_with_progress(
         cards: &cards,
         solids: &solids,
         uniform_background: tile::uniform_background(scene, opts),
+        vertex_colors: on_demand.as_ref(),
     };
     let busy_ns = std::sync::atomic::AtomicU64::new(0);
     let results: Vec<TileResult> = pool().install(|| {
@@ -411,6 +426,9 @@ pub fn render_with_progress(
         return None;
     }
     stats.tiles_ms = ms(t2);
+    if let Some(c) = &on_demand {
+        stats.vertices_shaded = c.shaded_count();
+    }
     stats.tiles_busy_ms = busy_ns.load(Ordering::Relaxed) as f64 * 1e-6;
 
     // 6. The image.

@@ -230,6 +230,11 @@ pub struct RenderOptions {
     /// Skip hair behind a tile's farthest opaque surface (exact: such hair
     /// fails every pixel's depth test anyway).
     pub opaque_culling: bool,
+    /// Per-vertex shading with MLAB or sorted transparency: shade a vertex
+    /// when a tile first draws a fragment of a segment ending at it, not
+    /// every vertex in view before the tiles (exact: the same radiance,
+    /// bit for bit; `shade::VertexColors`).
+    pub vertices_on_demand: bool,
     /// Coverage samples: each tile's strand segments drawn nearest first,
     /// and a pixel skipped for a segment where every sample already lies
     /// nearer than the segment can reach (exact: the samples' owners do
@@ -347,6 +352,7 @@ impl Default for RenderOptions {
             frustum_culling: true,
             backface_culling: true,
             opaque_culling: true,
+            vertices_on_demand: true,
             nearest_first: true,
             skip_unused: true,
             reuse_shadow_maps: true,

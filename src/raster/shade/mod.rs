@@ -8,10 +8,12 @@
 
 mod at_vertices;
 mod near;
+mod vertex_colors;
 mod vertex_shadows;
 mod vertices;
 mod visibility;
 pub use near::{offset_line, NearLight};
+pub use vertex_colors::{FetchScratch, VertexColors};
 pub use vertices::shade_vertices;
 
 use super::lighting::Lighting;

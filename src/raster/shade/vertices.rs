@@ -2,7 +2,7 @@
 //! interpolate it (`render.shading = "vertex"`).
 
 use super::{Fiber, Shader};
-use crate::raster::scene::Scene;
+use crate::raster::scene::{Scene, Strands};
 use crate::threads::pool;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -29,22 +29,8 @@ pub fn shade_vertices(
             }
         },
     );
-    let tangent = |i: usize| {
-        let s = owner[i];
-        let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
-        let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
-        (b - a).normalize_or_zero()
-    };
-    // The segment starting at the vertex (at the tip, the strand's last one).
-    let fiber = |i: usize| {
-        let s = owner[i];
-        let last = (st.offsets[s + 1] as usize).max(st.offsets[s] as usize + 2) - 2;
-        Fiber {
-            radius: st.radii[i],
-            strand: s as u32,
-            segment: (i.min(last) - s) as u32,
-        }
-    };
+    let tangent = |i: usize| vertex_tangent(st, owner[i], i);
+    let fiber = |i: usize| vertex_fiber(st, owner[i], i);
     // The vertices to shade, as indices into the strands' points, in
     // world-space locality order (below).
     let mut index: Vec<usize> = pool().install(|| match needed {
@@ -70,6 +56,27 @@ pub fn shade_vertices(
             })
         });
     scatter(st.points.len(), &index, &shaded)
+}
+
+/// The tangent at vertex `i` of strand `s`: the central difference (one
+/// sided at the ends).
+#[inline]
+pub(super) fn vertex_tangent(st: &Strands, s: usize, i: usize) -> Vec3 {
+    let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);
+    let (a, b) = (st.points[i.max(i0 + 1) - 1], st.points[(i + 1).min(i1 - 1)]);
+    (b - a).normalize_or_zero()
+}
+
+/// The fiber at vertex `i` of strand `s`: its radius there, on the segment
+/// starting at the vertex (at the tip, the strand's last one).
+#[inline]
+pub(super) fn vertex_fiber(st: &Strands, s: usize, i: usize) -> Fiber {
+    let last = (st.offsets[s + 1] as usize).max(st.offsets[s] as usize + 2) - 2;
+    Fiber {
+        radius: st.radii[i],
+        strand: s as u32,
+        segment: (i.min(last) - s) as u32,
+    }
 }
 
 /// `out[index[j]] = values[j]` for every `j`, 0 elsewhere, over `n`
@@ -163,7 +170,8 @@ mod tests {
     ///    against f64). Shading a subset of the vertices (frustum culling)
     ///    gives the same bits for them. The same for ChiangHair's tabulated
     ///    far field (`fiber::chiang::table_simd` test 1: 1.1e-5 relative
-    ///    against the scalar look-up).
+    ///    against the scalar look-up). Shaded on demand
+    ///    (`VertexColors`), in small scrambled batches, the same bits.
     #[test]
     fn t01_batched_vertex_shading_matches_per_point_shading() {
         let karis = HairShading::Karis(
@@ -279,6 +287,22 @@ mod tests {
             let want = if needed[i] { batched[i] } else { Vec3::ZERO };
             assert_eq!(subset[i], want, "vertex {i}");
         }
+        // On demand (`VertexColors`): in small batches of scrambled
+        // vertices, listed more than once, the same bits.
+        let colors = super::super::VertexColors::new(st, &shader, eye);
+        let mut scratch = super::super::FetchScratch::default();
+        let n = st.points.len();
+        let owner = |i: usize| st.offsets.partition_point(|&o| o as usize <= i) - 1;
+        let order: Vec<usize> = (0..2 * n).map(|j| (j * 7919) % n).collect();
+        for batch in order.chunks(7) {
+            let mut need: Vec<(u32, u32)> =
+                batch.iter().map(|&i| (i as u32, owner(i) as u32)).collect();
+            colors.fetch(&mut need, &mut scratch);
+            for &i in batch {
+                assert_eq!(colors.color(i as u32), batched[i], "vertex {i} on demand");
+            }
+        }
+        assert_eq!(colors.shaded_count(), n);
         let mut shadowed = 0;
         for s in 0..st.strand_count() {
             let (i0, i1) = (st.offsets[s] as usize, st.offsets[s + 1] as usize);

@@ -18,7 +18,7 @@ use super::samples::{surface_lead, unit, Claim, SampleBuffer, SamplePoints, Stra
 use super::scene::{RenderOptions, Scene, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
 use super::shade::{offset_line, NearLight};
-use super::shade::{Fiber, Shader, ShadowMaps};
+use super::shade::{FetchScratch, Fiber, Shader, ShadowMaps, VertexColors};
 use super::view::View;
 use crate::lighting::sh9_eval;
 use crate::math::{ceil, floor};
@@ -40,6 +40,10 @@ pub struct TileContext<'a> {
     /// The background's radiance where it is the same along every ray
     /// (no environment, or a constant one); None: per pixel.
     pub uniform_background: Option<Vec3>,
+    /// Per-vertex shading on demand (MLAB and sorted transparency): the
+    /// vertices' radiance, shaded when a tile first needs it; None where
+    /// the segments carry it (`Segment::ca`, `cb`) from before the tiles.
+    pub vertex_colors: Option<&'a VertexColors<'a>>,
 }
 
 /// The background's radiance when no pixel's ray changes it: the constant
@@ -104,6 +108,7 @@ pub struct TileMemory {
     layers: Option<Layers>,
     pending: Pending,
     hair: Option<BehindHair>,
+    vertex_pending: VertexPending,
 }
 
 /// Renders tile `(tx, ty)` in the buffers of `mem`.
@@ -125,6 +130,7 @@ pub fn render_tile(
     t.start_hair_culling();
     t.set_layer_depth_range(bins);
     t.strands(bins.segs, behind);
+    t.add_vertex_shaded();
     t.cards(bins.cards, behind);
     t.shade_pending();
     let (result, memory) = t.resolve();
@@ -156,6 +162,9 @@ struct Tile<'a> {
     /// composited in that same order (MLAB depends on it).
     deferred: bool,
     pending: Pending,
+    /// Strand fragments awaiting their vertices' radiance (on-demand
+    /// per-vertex shading: `TileContext::vertex_colors`).
+    vertex_pending: VertexPending,
     /// Hair culling (MLAB and sorted transparency; see [`BehindHair`]).
     hair: Option<BehindHair>,
     /// The culling state of an earlier tile, to be reset and reused.
@@ -188,6 +197,7 @@ impl<'a> Tile<'a> {
             None => Layers::new(n, k, ctx.opts.layer_format),
         };
         mem.pending.clear();
+        mem.vertex_pending.clear();
         Self {
             ctx,
             x0,
@@ -200,6 +210,7 @@ impl<'a> Tile<'a> {
             samples: None,
             deferred: ctx.shader.batches(),
             pending: mem.pending,
+            vertex_pending: mem.vertex_pending,
             hair: None,
             spare_hair: mem.hair,
             fragments: 0,
@@ -378,6 +389,59 @@ impl<'a> Tile<'a> {
         self.layers.add(k, depth, c, alpha);
     }
 
+    /// A strand fragment whose radiance is interpolated between the vertex
+    /// radiance of segment `si` at `tw` (on-demand per-vertex shading): its
+    /// coverage counts for hair culling now, and it goes to the layers in
+    /// [`Self::add_vertex_shaded`], once its vertices are shaded.
+    #[inline]
+    fn vertex_fragment(&mut self, k: usize, depth: f32, alpha: f32, si: u32, tw: f32) {
+        self.fragments += 1;
+        if let Some(h) = &mut self.hair {
+            h.add(k, depth, alpha);
+        }
+        self.vertex_pending.push(k, depth, alpha, si, tw);
+    }
+
+    /// The collected strand fragments (on-demand per-vertex shading): the
+    /// vertices of their segments that no tile has shaded yet, shaded in
+    /// one batch, then every fragment added to the layers in the order it
+    /// was drawn, with the radiance per-vertex shading gives it (as if
+    /// every vertex had been shaded before the tiles: the same bits).
+    fn add_vertex_shaded(&mut self) {
+        let Some(colors) = self.ctx.vertex_colors else {
+            return;
+        };
+        let segs = self.ctx.segs;
+        let vp = &mut self.vertex_pending;
+        if vp.k.is_empty() {
+            return;
+        }
+        // An end clipped at the near plane carries its own radiance
+        // (shaded where it lies before the tiles); the others are vertices.
+        vp.need.clear();
+        for &(si, _) in &vp.runs {
+            let s = &segs[si as usize];
+            if s.ta == 0.0 {
+                vp.need.push((s.i, s.strand));
+            }
+            if s.tb == 1.0 {
+                vp.need.push((s.i + 1, s.strand));
+            }
+        }
+        colors.fetch(&mut vp.need, &mut vp.scratch);
+        for (r, &(si, start)) in vp.runs.iter().enumerate() {
+            let s = &segs[si as usize];
+            let ca = if s.ta == 0.0 { colors.color(s.i) } else { s.ca };
+            let cb = if s.tb == 1.0 { colors.color(s.i + 1) } else { s.cb };
+            let end = vp.runs.get(r + 1).map_or(vp.k.len(), |x| x.1 as usize);
+            for f in start as usize..end {
+                let c = ca + (cb - ca) * vp.tw[f];
+                self.layers
+                    .add(vp.k[f] as usize, vp.depth[f], c, vp.alpha[f]);
+            }
+        }
+    }
+
     /// Strand segments: every pixel of each segment's row spans, with
     /// perspective-correct depth and world position, in scene order (so
     /// every pixel sees its fragments in a fixed order).
@@ -386,6 +450,8 @@ impl<'a> Tile<'a> {
         let (x0, y0, tw, th) = (self.x0, self.y0, self.tw, self.th);
         let sampled = self.samples.is_some();
         let near = self.ctx.shader.near_field();
+        let on_demand = self.ctx.vertex_colors.is_some();
+        debug_assert!(!(on_demand && sampled), "on-demand vertex colours without samples only");
         // Coverage samples: pixels whose samples all lie nearer than a
         // fragment are skipped before it is set up (exact: it would take
         // none), most of them when the nearest hair comes first.
@@ -528,7 +594,8 @@ impl<'a> Tile<'a> {
                     }
                     let tw_ = (t / s.zb) / inv;
                     let pw = s.pa + (s.pb - s.pa) * tw_;
-                    let color = opts.vertex_shading.then(|| s.ca + (s.cb - s.ca) * tw_);
+                    let color = (opts.vertex_shading && !on_demand)
+                        .then(|| s.ca + (s.cb - s.ca) * tw_);
                     let fiber = Fiber {
                         radius: s.ra + (s.rb - s.ra) * tw_,
                         strand: s.strand,
@@ -563,6 +630,8 @@ impl<'a> Tile<'a> {
                                 buf.cover_strand(k, c, pix, &seg)
                             },
                         );
+                    } else if on_demand {
+                        self.vertex_fragment(k, depth, cov, si, tw_);
                     } else {
                         self.hair_fragment(k, depth, cov, pw, tangent, fiber, color);
                     }
@@ -634,6 +703,43 @@ impl<'a> Tile<'a> {
                 }
             }
         }
+    }
+}
+
+/// Strand fragments of a tile awaiting their vertices' radiance: pixel,
+/// depth, coverage (alpha) and parameter along the segment, and the runs
+/// of fragments of one segment (the segment, the run's first fragment).
+#[derive(Default)]
+struct VertexPending {
+    k: Vec<u32>,
+    depth: Vec<f32>,
+    alpha: Vec<f32>,
+    tw: Vec<f32>,
+    runs: Vec<(u32, u32)>,
+    /// The vertices the runs need (vertex, strand), and the buffers of
+    /// their shading.
+    need: Vec<(u32, u32)>,
+    scratch: FetchScratch,
+}
+
+impl VertexPending {
+    fn clear(&mut self) {
+        self.k.clear();
+        self.depth.clear();
+        self.alpha.clear();
+        self.tw.clear();
+        self.runs.clear();
+    }
+
+    #[inline]
+    fn push(&mut self, k: usize, depth: f32, alpha: f32, si: u32, tw: f32) {
+        if self.runs.last().is_none_or(|r| r.0 != si) {
+            self.runs.push((si, self.k.len() as u32));
+        }
+        self.k.push(k as u32);
+        self.depth.push(depth);
+        self.alpha.push(alpha);
+        self.tw.push(tw);
     }
 }
 

@@ -177,6 +177,7 @@ impl Tile<'_> {
             layers: Some(self.layers),
             pending: self.pending,
             hair: self.hair.or(self.spare_hair),
+            vertex_pending: self.vertex_pending,
         };
         (result, memory)
     }
