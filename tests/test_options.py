@@ -140,7 +140,7 @@ def test_05_presets_resolve_per_model_and_merge_by_method():
     deon = hs.Scene.from_dict(_scene_dict("deon"))
     assert chiang.options()["multiple_scattering"] == "volume"  # balanced, the default
     assert karis.options()["multiple_scattering"] == "dual"
-    assert chiang.options(quality="fast")["multiple_scattering"] == "none"
+    assert chiang.options(quality="fast")["multiple_scattering"] == "dual"
     assert karis.options(quality="fast")["multiple_scattering"] == "karis"
     assert deon.options(quality="accurate")["multiple_scattering"] == "none"
     acc = chiang.options(quality="accurate")
@@ -178,6 +178,20 @@ def test_06_old_flat_keys_translate_with_a_warning():
                         "shading": "pixel"}
     assert c.options()["multiple_scattering"] == "karis" and c.options()["shadow_model"] == "exponential"
     assert c.options()["shading"] == "pixel"
+    # ChiangHair: no multiple scattering, and under an environment its 32 directions (fast now sets dual
+    # scattering and 8); the same image as those settings written out
+    for environment in (False, True):
+        with pytest.warns(DeprecationWarning, match="read as it rendered before"):
+            ch = hs.Scene.from_dict(_scene_dict("chiang", environment, layers=4))
+        o = ch.options()
+        assert o["multiple_scattering"] == "none"
+        assert ("environment_directions" in ch.render) == environment
+        if environment:
+            assert o["environment_directions"] == 32
+        spelt = hs.Scene.from_dict(_scene_dict("chiang", environment, quality="fast", transparency={"mlab": {"layers": 4}},
+                                               shadows="exponential", shading="pixel", multiple_scattering="none",
+                                               **({"environment_directions": 32} if environment else {})))
+        np.testing.assert_array_equal(hs.render(ch, progress=False), hs.render(spelt, progress=False))
     # the old 'auto' keyword: the preset decides, with a warning
     with pytest.warns(DeprecationWarning, match="multiple_scattering 'auto' is deprecated"):
         assert b.options(multiple_scattering="auto") == b.options()

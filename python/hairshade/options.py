@@ -373,12 +373,19 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     # `lod: "auto"` is 3x faster again, with the level of detail's error). A pixel's hair
     # behind 2% transmittance is skipped, not behind 0.1% (at 1280x720 the demo head's frame
     # 1.14x faster, the dense heads' 1.03-1.12x; relMSE at most 2e-5 against 0.1%, a
-    # channel's mean at most 0.33% darker: docs/speed.md)
+    # channel's mean at most 0.33% darker: docs/speed.md). ChiangHair takes dual scattering
+    # (its six dense heads' means 0.72-1.06 of the truth's, not 0.41-0.96 without multiple
+    # scattering; relMSE lower on five of them, 1.65x higher on the backlit blond, whose
+    # opacity-mapped shadows are too light once multiple scattering is added; frames 1.0-1.9x
+    # longer), and the environment is read along 8 directions, not 32 (the blond head
+    # under an environment: the frame as without multiple scattering, relMSE 1.4e-2 against
+    # 9.1e-3 at 32 and 7.5e-2 without; docs/quality.md)
     "fast": {
         "transparency": {"mlab": {"layers": 4, "cull_transmittance": 0.02}},
         "shadows": {"opacity": {}},
-        "multiple_scattering": {"karis": "karis", "chiang": "none", "deon": "none"},
+        "multiple_scattering": {"karis": "karis", "chiang": "dual", "deon": "none"},
         "shading": "vertex",
+        "environment_directions": 8,
     },
     # the best error per second: 16 coverage samples (32 for ChiangHair, below), traced shadows (decided at the strand
     # vertices where a segment's two ends agree: the demo head 1.2x faster at 1280x720, relMSE
@@ -415,7 +422,7 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     },
 }
 #: The settings besides the groups a preset may set.
-PRESET_SETTINGS: Tuple[str, ...] = ("shading", "lod", "guides")
+PRESET_SETTINGS: Tuple[str, ...] = ("shading", "lod", "guides", "environment_directions")
 DEFAULT_QUALITY = "balanced"
 
 # -- old flat keys -------------------------------------------------------------------
@@ -466,7 +473,8 @@ def _method_of(value: Any, group: str) -> Tuple[str, Dict[str, Any]]:
     raise _fail(group, f"expected {names}, or {{method: {{options}}}}, got {type(value).__name__}")
 
 
-def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_section: bool = False) -> Dict[str, Any]:
+def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_section: bool = False,
+                   model: str | None = None, environment: bool = False) -> Dict[str, Any]:
     """``settings`` with the flat keys of older files turned into the grouped
     form, read as they were read before (a ``DeprecationWarning`` names each
     new spelling): an option's method is the one the settings name, else
@@ -475,8 +483,10 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_sec
     and ``sphere_bounce``). With ``whole_section`` (a scene file's
     ``render``), a section in the old spelling also keeps the old defaults
     of what it leaves out: quality 'fast' (MLAB, the model's own multiple
-    scattering), shadows 'exponential' and shading 'pixel', so that it
-    renders as it did.
+    scattering: none for ChiangHair, whose ``model`` the caller gives),
+    shadows 'exponential', shading 'pixel' and, where the scene has an
+    ``environment`` shaded as lights, the renderer's 32 environment
+    directions, so that it renders as it did.
     The speed-up switches are refused."""
     if not isinstance(settings, Mapping):
         raise SceneError(f"{where}: expected an object of render settings, got {type(settings).__name__}")
@@ -487,7 +497,8 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_sec
                            f"off=({k!r},))")
     out = {k: v for k, v in settings.items() if k not in _FLAT}
     old = any(k in _FLAT for k in settings) or out.get("multiple_scattering") == "auto"
-    if whole_section and old and "quality" not in out:
+    legacy = whole_section and old and "quality" not in out
+    if legacy:
         warnings.warn(f"{where}: the flat spelling of render settings is deprecated; this section is read as it "
                       "rendered before (quality 'fast', shadows 'exponential' unless it names them): write the "
                       "settings grouped (docs/options.md) to render with the quality presets",
@@ -525,6 +536,15 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_sec
             warnings.warn(f"render.{k} is deprecated: write render.{group}.{method}.{new} "
                           f'({{"{group}": {{"{method}": {{"{new}": ...}}}}}})', DeprecationWarning, stacklevel=3)
         out[group] = {method: opts} if opts else method
+    if legacy:
+        # what 'fast' sets now that it did not: dual scattering for ChiangHair, and 8 environment directions
+        if model == "chiang":
+            out.setdefault("multiple_scattering", "none")
+        ms = _method_of(out["multiple_scattering"], "multiple_scattering")[0] if "multiple_scattering" in out \
+            else {"karis": "karis"}.get(model or "karis", "none")
+        if environment and (model != "karis" or ms == "dual"):
+            from . import _native
+            out.setdefault("environment_directions", _native.render_options({})["environment_directions"])
     return out
 
 
@@ -613,6 +633,7 @@ def markdown() -> str:
     from . import _native
 
     ranges = _native.render_option_ranges()
+    defaults = _native.render_options({})
     lines = ["# Render settings", "",
              "Generated by `scripts/quality_table.py --options` from `hairshade/options.py`; "
              "ranges are the renderer's (`hairshade._native.render_option_ranges`).", "",
@@ -637,8 +658,9 @@ def markdown() -> str:
         note = f" Only where it applies: {f.applies.why}." if f.applies else ""
         lines.append(f"| `{f.path}` | {rng(f.native, f.type)} | {f.doc}.{note} |")
     lines += ["", "## Presets", "", "A setting with three values is per model: KarisHair / ChiangHair / DEonHair.", "",
-              "| quality | transparency | shadows | multiple scattering | shading | lod | guides |",
-              "| --- | --- | --- | --- | --- | --- | --- |"]
+              "| quality | transparency | shadows | multiple scattering | shading | lod | guides | "
+              "environment directions |",
+              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
 
     def per_model(v: Any) -> str:
         if isinstance(v, Mapping) and set(v) == set(MODELS):
@@ -648,7 +670,8 @@ def markdown() -> str:
     for q, p in PRESETS.items():
         lines.append(f"| `{q}` | {per_model(p['transparency'])} | {per_model(p['shadows'])} | "
                      f"{per_model(p['multiple_scattering'])} | {p.get('shading', 'pixel')} | "
-                     f"{p.get('lod', 1.0)} | {p.get('guides', 1.0)} |")
+                     f"{p.get('lod', 1.0)} | {p.get('guides', 1.0)} | "
+                     f"{p.get('environment_directions', defaults['environment_directions'])} |")
     return "\n".join(lines) + "\n"
 
 

@@ -734,7 +734,7 @@ def _parse(d: Any, base_dir: str, source: str,
 
     r = c.obj(d.get("render", {}), "render")
     try:
-        render = options.translate_flat(r, whole_section=True)
+        render = options.translate_flat(r, whole_section=True, model=mat["model"], environment=env is not None)
     except SceneError as e:
         raise SceneError(f"{c.source}: {e}") from None
     scene = Scene(camera, lights, env, points, radii, offsets, spheres, mat, render, source)
