@@ -91,7 +91,8 @@ def render(
     what it reused from the frame before (``shadow_maps_reused``,
     ``lighting_reused``, ``volume_reused``), ``memory_estimate`` (bytes),
     and wall times in milliseconds: ``shadow_ms``, ``setup_ms`` (which
-    includes ``vertex_ms``), ``tiles_ms``, ``volume_ms``, ``guides_ms`` and
+    includes ``vertex_ms``, the per-vertex shading done before the tiles;
+    shaded on demand, vertices are shaded in ``tiles_ms``), ``tiles_ms``, ``volume_ms``, ``guides_ms`` and
     ``total_ms`` (the renderer's whole frame; the call's own wall time adds
     the scene's conversion in and the image's out). ``tiles_busy_ms`` is
     the tiles' own times summed: over ``tiles_ms`` times the threads, how

@@ -71,7 +71,8 @@ pub struct RenderStats {
     pub segments: usize,
     pub segments_visible: usize,
     /// Strand vertices shaded (per-vertex shading; frustum culling leaves
-    /// out those of segments that reach no pixel).
+    /// out those of segments that reach no pixel, and shading on demand
+    /// those of segments that draw no fragment).
     pub vertices_shaded: usize,
     /// Mesh triangles skipped by back-face culling.
     pub backfaces_culled: usize,
@@ -117,8 +118,10 @@ pub struct RenderStats {
     /// last render's are reused), in milliseconds.
     pub guide_strands: usize,
     pub guides_ms: f64,
-    /// Wall time of per-vertex shading (`vertex` shading; at the guides
-    /// and gathered, with guide-strand lighting), in milliseconds.
+    /// Wall time of per-vertex shading before the tiles (`vertex` shading;
+    /// at the guides and gathered, with guide-strand lighting), in
+    /// milliseconds. Shaded on demand, the vertices are shaded in the
+    /// tiles (`tiles_ms`), and this is the near-clipped ends alone.
     pub vertex_ms: f64,
     /// Wall time of the phases, in milliseconds: shadow maps, setup
     /// (per-vertex shading when on, projection, binning), tiles

@@ -94,8 +94,12 @@ impl<'a> VertexColors<'a> {
             }
             scratch.todo.push(i);
             scratch.points.push(st.points[i as usize]);
-            scratch.tangents.push(vertex_tangent(st, s as usize, i as usize));
-            scratch.fibers.push(vertex_fiber(st, s as usize, i as usize));
+            scratch
+                .tangents
+                .push(vertex_tangent(st, s as usize, i as usize));
+            scratch
+                .fibers
+                .push(vertex_fiber(st, s as usize, i as usize));
         }
         if scratch.todo.is_empty() {
             return;
@@ -134,7 +138,8 @@ impl<'a> VertexColors<'a> {
     /// The radiance of vertex `i`, after [`Self::fetch`] listed it.
     #[inline]
     pub fn color(&self, i: u32) -> Vec3 {
-        self.get(i).expect("vertex colour read before it was fetched")
+        self.get(i)
+            .expect("vertex colour read before it was fetched")
     }
 
     /// How many vertices have been shaded.

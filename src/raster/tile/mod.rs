@@ -6,9 +6,11 @@
 //! transparency layers composited over the opaque surface).
 
 mod opaque;
+mod pending;
 mod resolve;
 
 use opaque::Surface;
+use pending::{Pending, VertexPending};
 
 use super::bin::TILE;
 use super::coverage::{coverage_at, stretch_param, triangle_pixels, RowSpan, Tri2};
@@ -17,8 +19,8 @@ use super::oit::Layers;
 use super::samples::{surface_lead, unit, Claim, SampleBuffer, SamplePoints, StrandSamples};
 use super::scene::{RenderOptions, Scene, Transparency};
 use super::setup::{CardTri, Segment, SolidTri};
-use super::shade::{offset_line, NearLight};
-use super::shade::{FetchScratch, Fiber, Shader, ShadowMaps, VertexColors};
+use super::shade::offset_line;
+use super::shade::{Fiber, Shader, ShadowMaps, VertexColors};
 use super::view::View;
 use crate::lighting::sh9_eval;
 use crate::math::{ceil, floor};
@@ -402,46 +404,6 @@ impl<'a> Tile<'a> {
         self.vertex_pending.push(k, depth, alpha, si, tw);
     }
 
-    /// The collected strand fragments (on-demand per-vertex shading): the
-    /// vertices of their segments that no tile has shaded yet, shaded in
-    /// one batch, then every fragment added to the layers in the order it
-    /// was drawn, with the radiance per-vertex shading gives it (as if
-    /// every vertex had been shaded before the tiles: the same bits).
-    fn add_vertex_shaded(&mut self) {
-        let Some(colors) = self.ctx.vertex_colors else {
-            return;
-        };
-        let segs = self.ctx.segs;
-        let vp = &mut self.vertex_pending;
-        if vp.k.is_empty() {
-            return;
-        }
-        // An end clipped at the near plane carries its own radiance
-        // (shaded where it lies before the tiles); the others are vertices.
-        vp.need.clear();
-        for &(si, _) in &vp.runs {
-            let s = &segs[si as usize];
-            if s.ta == 0.0 {
-                vp.need.push((s.i, s.strand));
-            }
-            if s.tb == 1.0 {
-                vp.need.push((s.i + 1, s.strand));
-            }
-        }
-        colors.fetch(&mut vp.need, &mut vp.scratch);
-        for (r, &(si, start)) in vp.runs.iter().enumerate() {
-            let s = &segs[si as usize];
-            let ca = if s.ta == 0.0 { colors.color(s.i) } else { s.ca };
-            let cb = if s.tb == 1.0 { colors.color(s.i + 1) } else { s.cb };
-            let end = vp.runs.get(r + 1).map_or(vp.k.len(), |x| x.1 as usize);
-            for f in start as usize..end {
-                let c = ca + (cb - ca) * vp.tw[f];
-                self.layers
-                    .add(vp.k[f] as usize, vp.depth[f], c, vp.alpha[f]);
-            }
-        }
-    }
-
     /// Strand segments: every pixel of each segment's row spans, with
     /// perspective-correct depth and world position, in scene order (so
     /// every pixel sees its fragments in a fixed order).
@@ -451,7 +413,10 @@ impl<'a> Tile<'a> {
         let sampled = self.samples.is_some();
         let near = self.ctx.shader.near_field();
         let on_demand = self.ctx.vertex_colors.is_some();
-        debug_assert!(!(on_demand && sampled), "on-demand vertex colours without samples only");
+        debug_assert!(
+            !(on_demand && sampled),
+            "on-demand vertex colours without samples only"
+        );
         // Coverage samples: pixels whose samples all lie nearer than a
         // fragment are skipped before it is set up (exact: it would take
         // none), most of them when the nearest hair comes first.
@@ -594,8 +559,8 @@ impl<'a> Tile<'a> {
                     }
                     let tw_ = (t / s.zb) / inv;
                     let pw = s.pa + (s.pb - s.pa) * tw_;
-                    let color = (opts.vertex_shading && !on_demand)
-                        .then(|| s.ca + (s.cb - s.ca) * tw_);
+                    let color =
+                        (opts.vertex_shading && !on_demand).then(|| s.ca + (s.cb - s.ca) * tw_);
                     let fiber = Fiber {
                         radius: s.ra + (s.rb - s.ra) * tw_,
                         strand: s.strand,
@@ -703,89 +668,5 @@ impl<'a> Tile<'a> {
                 }
             }
         }
-    }
-}
-
-/// Strand fragments of a tile awaiting their vertices' radiance: pixel,
-/// depth, coverage (alpha) and parameter along the segment, and the runs
-/// of fragments of one segment (the segment, the run's first fragment).
-#[derive(Default)]
-struct VertexPending {
-    k: Vec<u32>,
-    depth: Vec<f32>,
-    alpha: Vec<f32>,
-    tw: Vec<f32>,
-    runs: Vec<(u32, u32)>,
-    /// The vertices the runs need (vertex, strand), and the buffers of
-    /// their shading.
-    need: Vec<(u32, u32)>,
-    scratch: FetchScratch,
-}
-
-impl VertexPending {
-    fn clear(&mut self) {
-        self.k.clear();
-        self.depth.clear();
-        self.alpha.clear();
-        self.tw.clear();
-        self.runs.clear();
-    }
-
-    #[inline]
-    fn push(&mut self, k: usize, depth: f32, alpha: f32, si: u32, tw: f32) {
-        if self.runs.last().is_none_or(|r| r.0 != si) {
-            self.runs.push((si, self.k.len() as u32));
-        }
-        self.k.push(k as u32);
-        self.depth.push(depth);
-        self.alpha.push(alpha);
-        self.tw.push(tw);
-    }
-}
-
-/// Hair fragments of a tile awaiting shading: pixel, depth, coverage
-/// (alpha), world position, tangent, fiber.
-#[derive(Default)]
-struct Pending {
-    k: Vec<u32>,
-    depth: Vec<f32>,
-    alpha: Vec<f32>,
-    p: Vec<Vec3>,
-    t: Vec<Vec3>,
-    fiber: Vec<Fiber>,
-    /// Radiance: the interpolated per-vertex radiance, or NaN until the
-    /// fragment is shaded.
-    color: Vec<Vec3>,
-    /// Coverage mode: the screen line giving a sample's offset across the
-    /// fiber ([`offset_line`]; NaN for cards), and with the near field the
-    /// range of `lights` the fragment's samples shade by it.
-    line: Vec<[f32; 4]>,
-    near: Vec<(u32, u32)>,
-    lights: Vec<NearLight>,
-}
-
-impl Pending {
-    fn clear(&mut self) {
-        self.k.clear();
-        self.depth.clear();
-        self.alpha.clear();
-        self.p.clear();
-        self.t.clear();
-        self.fiber.clear();
-        self.color.clear();
-        self.line.clear();
-        self.near.clear();
-        self.lights.clear();
-    }
-
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    fn push(&mut self, k: usize, depth: f32, alpha: f32, p: Vec3, t: Vec3, fiber: Fiber) {
-        self.k.push(k as u32);
-        self.depth.push(depth);
-        self.alpha.push(alpha);
-        self.p.push(p);
-        self.t.push(t);
-        self.fiber.push(fiber);
     }
 }

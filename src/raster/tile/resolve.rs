@@ -1,10 +1,12 @@
-//! The end of a tile: its collected hair fragments shaded (in one batch
-//! where the model has a vector kernel; in coverage mode only those that
-//! own a sample), and the resolve of every pixel (the transparency layers
+//! The end of a tile: its strand fragments given their vertices' radiance
+//! (on-demand per-vertex shading), its collected hair fragments shaded (in
+//! one batch where the model has a vector kernel; in coverage mode only
+//! those that own a sample), and the resolve of every pixel (the transparency layers
 //! composited over the opaque surface; non-finite pixels become 0 and are
 //! counted).
 
-use super::{Pending, Tile, TileMemory, TileResult};
+use super::pending::Pending;
+use super::{Tile, TileMemory, TileResult};
 use crate::raster::bin::TILE;
 use crate::raster::samples::SAMPLES;
 use crate::raster::shade::{Fiber, Shader};
@@ -12,6 +14,50 @@ use crate::raster::shadow::ShadowModel;
 use glam::Vec3;
 
 impl Tile<'_> {
+    /// The collected strand fragments (on-demand per-vertex shading): the
+    /// vertices of their segments that no tile has shaded yet, shaded in
+    /// one batch, then every fragment added to the layers in the order it
+    /// was drawn, with the radiance per-vertex shading gives it (as if
+    /// every vertex had been shaded before the tiles: the same bits).
+    pub(super) fn add_vertex_shaded(&mut self) {
+        let Some(colors) = self.ctx.vertex_colors else {
+            return;
+        };
+        let segs = self.ctx.segs;
+        let vp = &mut self.vertex_pending;
+        if vp.k.is_empty() {
+            return;
+        }
+        // An end clipped at the near plane carries its own radiance
+        // (shaded where it lies before the tiles); the others are vertices.
+        vp.need.clear();
+        for &(si, _) in &vp.runs {
+            let s = &segs[si as usize];
+            if s.ta == 0.0 {
+                vp.need.push((s.i, s.strand));
+            }
+            if s.tb == 1.0 {
+                vp.need.push((s.i + 1, s.strand));
+            }
+        }
+        colors.fetch(&mut vp.need, &mut vp.scratch);
+        for (r, &(si, start)) in vp.runs.iter().enumerate() {
+            let s = &segs[si as usize];
+            let ca = if s.ta == 0.0 { colors.color(s.i) } else { s.ca };
+            let cb = if s.tb == 1.0 {
+                colors.color(s.i + 1)
+            } else {
+                s.cb
+            };
+            let end = vp.runs.get(r + 1).map_or(vp.k.len(), |x| x.1 as usize);
+            for f in start as usize..end {
+                let c = ca + (cb - ca) * vp.tw[f];
+                self.layers
+                    .add(vp.k[f] as usize, vp.depth[f], c, vp.alpha[f]);
+            }
+        }
+    }
+
     /// The collected fragments, shaded in one batch and composited in the
     /// order they were produced.
     pub(super) fn shade_pending(&mut self) {
