@@ -374,12 +374,12 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     # behind 2% transmittance is skipped, not behind 0.1% (at 1280x720 the demo head's frame
     # 1.14x faster, the dense heads' 1.03-1.12x; relMSE at most 2e-5 against 0.1%, a
     # channel's mean at most 0.33% darker: docs/speed.md). ChiangHair takes dual scattering
-    # (its six dense heads' means 0.72-1.06 of the truth's, not 0.41-0.96 without multiple
-    # scattering; relMSE lower on five of them, 1.65x higher on the backlit blond, whose
-    # opacity-mapped shadows are too light once multiple scattering is added; frames 1.0-1.9x
-    # longer), and the environment is read along 8 directions, not 32 (the blond head
-    # under an environment: the frame as without multiple scattering, relMSE 1.4e-2 against
-    # 9.1e-3 at 32 and 7.5e-2 without; docs/quality.md)
+    # (its six dense heads' means 0.72-1.01 of the truth's, not 0.41-0.96 without multiple
+    # scattering; relMSE lower on five of them, 1.45x higher on the backlit blond, whose
+    # opacity-mapped shadows are too light once multiple scattering is added; frames 1.41x
+    # longer, median, at most 1.6x), and the environment is read along 8 directions, not 32
+    # (the blond head under an environment: the frame as without multiple scattering, relMSE
+    # 1.4e-2 against 9.1e-3 at 32 and 7.5e-2 without; docs/fast_multiple_scattering.md)
     "fast": {
         "transparency": {"mlab": {"layers": 4, "cull_transmittance": 0.02}},
         "shadows": {"opacity": {}},
