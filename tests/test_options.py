@@ -192,6 +192,10 @@ def test_06_old_flat_keys_translate_with_a_warning():
                                                shadows="exponential", shading="pixel", multiple_scattering="none",
                                                **({"environment_directions": 32} if environment else {})))
         np.testing.assert_array_equal(hs.render(ch, progress=False), hs.render(spelt, progress=False))
+    # KarisHair under an environment with the volume: the environment is shaded as lights, at 32 directions
+    with pytest.warns(DeprecationWarning, match="read as it rendered before"):
+        kv = hs.Scene.from_dict(_scene_dict("karis", True, layers=4, multiple_scattering="volume"))
+    assert kv.options()["environment_directions"] == 32
     # the old 'auto' keyword: the preset decides, with a warning
     with pytest.warns(DeprecationWarning, match="multiple_scattering 'auto' is deprecated"):
         assert b.options(multiple_scattering="auto") == b.options()

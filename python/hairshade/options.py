@@ -540,9 +540,10 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_sec
         # what 'fast' sets now that it did not: dual scattering for ChiangHair, and 8 environment directions
         if model == "chiang":
             out.setdefault("multiple_scattering", "none")
-        ms = _method_of(out["multiple_scattering"], "multiple_scattering")[0] if "multiple_scattering" in out \
-            else {"karis": "karis"}.get(model or "karis", "none")
-        if environment and (model != "karis" or ms == "dual"):
+        m = model or "karis"
+        ms = _method_of(out.get("multiple_scattering", PRESETS["fast"]["multiple_scattering"][m]),
+                        "multiple_scattering")[0]
+        if Context(m, environment, "", "", ms).environment_as_lights:
             from . import _native
             out.setdefault("environment_directions", _native.render_options({})["environment_directions"])
     return out
