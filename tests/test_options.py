@@ -99,7 +99,7 @@ def test_02_model_and_scene_conditions_are_checked_at_load(model, environment, r
     ({"transparency": {"coverage": {"sample": 4}}}, "render.transparency.coverage.sample: unknown option"),
     ({"transparency": {"mlab": {}, "sorted": {}}}, "render.transparency: expected one method"),
     ({"shadows": "deep"}, "render.shadows: expected"),
-    ({"transparency": {"coverage": {"samples": 65}}}, r"render.transparency.coverage.samples: must be in \[1, 64\]"),
+    ({"transparency": {"coverage": {"samples": 257}}}, r"render.transparency.coverage.samples: must be in \[1, 256\]"),
     ({"multiple_scattering": {"dual": {"forward_density": 2}}},
      r"render.multiple_scattering.dual.forward_density: must be in \[0, 1\]"),
     ({"frustum_culling": False}, "render.frustum_culling: is an exact speed-up"),
@@ -144,9 +144,10 @@ def test_05_presets_resolve_per_model_and_merge_by_method():
     assert karis.options(quality="fast")["multiple_scattering"] == "karis"
     assert deon.options(quality="accurate")["multiple_scattering"] == "none"
     acc = chiang.options(quality="accurate")
-    assert (acc["transparency"], acc["samples"], acc["shadow_model"]) == ("coverage", 64, "traced")
+    assert (acc["transparency"], acc["samples"], acc["shadow_model"]) == ("coverage", 128, "traced")
+    assert karis.options(quality="accurate")["samples"] == 64
     # same method: the preset's samples stay unless given; another method: its own defaults
-    assert chiang.options(quality="accurate", transparency="coverage")["samples"] == 64
+    assert chiang.options(quality="accurate", transparency="coverage")["samples"] == 128
     assert chiang.options(quality="accurate", transparency={"coverage": {"samples": 8}})["samples"] == 8
     assert chiang.options(quality="accurate", transparency="mlab")["transparency"] == "mlab"
     for q in options.QUALITIES:

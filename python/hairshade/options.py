@@ -410,17 +410,23 @@ PRESETS: Dict[str, Dict[str, Any]] = {
         "shading": "split",
         "guides": 0.1,
     },
-    # the closest: 64 coverage samples (the near field's noise falls with them), and the
-    # volume solved with 4x the photons (2^20 a light: relMSE against the truth lower on
-    # every ChiangHair head, 2.95e-3 from 3.59e-3 on the wavy rim-lit one, the means moved by
-    # at most 0.7%; the solve about 2.5x longer, once per lighting; docs/photons.md)
+    # the closest: 64 coverage samples (128 for ChiangHair, whose near field samples its fiber's
+    # offset h at each), the volume solved with 2^21 photons a light on 96 cells a side
+    # (docs/volume.md: at 48 cells and 2^20 photons, with 64 samples, the wavy rim-lit blond
+    # head's red was 0.946 of the truth's and the backlit blond's relMSE 3.77e-3; a coarse
+    # cell averages the light over fibers deeper than those seen, its multiple scattering rose
+    # with the cells to 0.957, and the sampling noise of 64 samples was 1.2e-3 of that relMSE
+    # (2.80e-3 at 128); the solve about 2x longer, once per lighting, the frame about 1.3x)
     "accurate": {
-        "transparency": {"coverage": {"samples": 64}},
+        "transparency": {"karis": {"coverage": {"samples": 64}}, "chiang": {"coverage": {"samples": 128}},
+                         "deon": {"coverage": {"samples": 64}}},
         "shadows": {"traced": {}},
-        "multiple_scattering": {"karis": "dual", "chiang": {"volume": {"photons": 1 << 20}}, "deon": "none"},
+        "multiple_scattering": {"karis": "dual", "chiang": {"volume": {"photons": 1 << 21, "resolution": 96}},
+                                "deon": "none"},
         "shading": "split",
     },
 }
+
 #: The settings besides the groups a preset may set.
 PRESET_SETTINGS: Tuple[str, ...] = ("shading", "lod", "guides", "environment_directions")
 DEFAULT_QUALITY = "balanced"

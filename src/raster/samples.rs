@@ -27,7 +27,7 @@ use crate::math::fract;
 use glam::Vec3;
 
 /// Inclusive range of the number of coverage samples per pixel.
-pub const SAMPLES: (usize, usize) = (1, 64);
+pub const SAMPLES: (usize, usize) = (1, 256);
 
 /// Owner of a sample no hair covers.
 const NONE: u32 = u32::MAX;
