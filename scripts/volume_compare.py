@@ -340,19 +340,52 @@ def convergence(tmp: str, rows: list, md: list, quick: bool) -> None:
                                  ms_ratio=ms, seconds=f"{st['volume_ms'] / 1000:.2f}"))
                 md.append(f"| {name} | {res} | {photons} | {e:.2e} | {ms} | {st['volume_ms'] / 1000:.2f} |")
                 print(f"convergence {name} {res} {photons}: {e:.2e} MS {ms}", flush=True)
-        # what is left without any multiple-scattering error: the single scattering's against
-        # Mitsuba's max_depth 2 (the render without multiple scattering, whose error adds to the
-        # total's as the two are independent estimates)
         finest = max(errors)
-        floors.append(f"{name}: {errors[finest]:.2e} at {finest[0]} cells and 2^{finest[1].bit_length() - 1} "
-                      f"photons, of which the single scattering alone is {hs.rel_mse(none, depth2):.2e} "
-                      "(the render without multiple scattering against Mitsuba's max_depth 2)")
-    md += ["", "The floor: " + "; ".join(floors) + ". The single scattering's error is the near field "
-           "sampled at the coverage samples' offsets and the rim's glints (a few pixels where light passes "
-           "through the backlit fibers; `docs/single_resolution.md`), and does not fall with the grid or the "
-           "photons. Coarse cells average the light over fibers deeper in the hair than those seen, so the "
-           "multiple scattering rises towards the truth's as the cells shrink; fewer photons a cell then add "
-           "noise, which more photons take away.", ""]
+        floors.append(floor_of(name, ref, depth2, none, errors[finest], finest))
+    md += ["", floor_text(floors), ""]
+
+
+def floor_of(name, ref, depth2, none, error, finest) -> str:
+    """The finest setting's relMSE against the truth and the part of it the
+    single scattering alone makes: its error against Mitsuba's max_depth 2
+    weighted as relMSE weights the total's (by the truth), so that the two
+    add up when the multiple scattering's error is independent of it."""
+    part = float(np.mean((none - depth2) ** 2 / (ref ** 2 + 0.01)))
+    return (f"{name}: {error:.2e} at {finest[0]} cells and 2^{finest[1].bit_length() - 1} photons, of which "
+            f"the single scattering alone makes {part:.2e}")
+
+
+def floor_text(floors: list) -> str:
+    return ("The floor (this paragraph alone: `--only floor`): " + "; ".join(floors)
+            + " (the render without multiple scattering against Mitsuba's max_depth 2, weighted by the truth as "
+            "relMSE is). The single scattering's error is the near field "
+            "sampled at the coverage samples' offsets and the rim's glints (a few pixels where light passes "
+            "through the backlit fibers; `docs/single_resolution.md`), and does not fall with the grid or the "
+            "photons. Coarse cells average the light over fibers deeper in the hair than those seen, so the "
+            "multiple scattering rises towards the truth's as the cells shrink; fewer photons a cell then add "
+            "noise, which more photons take away.")
+
+
+def floor_only(tmp: str, out: pathlib.Path) -> None:
+    """The convergence section's floor paragraph alone, written into an
+    existing volume.md in place of its own (`--only floor`)."""
+    floors = []
+    for name in ("blond_env", "blond_back"):
+        ref = hs.read_exr(str(DENSE / f"{name}.exr"))
+        depth2 = hs.read_exr(str(DENSE / f"{name}_depth2.exr"))
+        sc = scene_without_settings(DENSE / f"{name}.json", tmp, curve=TRUTH_CURVE)
+        none = hs.render(sc, W, H, quality="accurate", multiple_scattering="none")
+        finest = (96, 1 << 22)
+        img = hs.render(sc, W, H, quality="accurate",
+                        multiple_scattering={"volume": {"resolution": finest[0], "photons": finest[1]}})
+        floors.append(floor_of(name, ref, depth2, none, hs.rel_mse(img, ref), finest))
+        print(floors[-1], flush=True)
+    page = (out / "volume.md").read_text().splitlines()
+    at = [i for i, line in enumerate(page) if line.startswith("The floor")]
+    if len(at) != 1:
+        raise SystemExit(f"{out / 'volume.md'}: expected one floor paragraph, found {len(at)}")
+    page[at[0]] = floor_text(floors)
+    (out / "volume.md").write_text("\n".join(page) + "\n")
 
 
 TRANSPORT_HEADS = ("auburn_key", "black_top", "blond_back", "clumped_blond_key", "wavy_blond_rim")
@@ -475,7 +508,9 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument("--quick", action="store_true", help="fewer convergence points")
-    ap.add_argument("--only", choices=["transport"], help="run this section alone, into docs/volume_SECTION.md")
+    ap.add_argument("--only", choices=["transport", "floor"],
+                    help="transport: run that section alone, into docs/volume_transport.md; floor: the convergence "
+                         "section's floor paragraph alone, written into docs/volume.md")
     a = ap.parse_args()
     warnings.simplefilter("ignore", DeprecationWarning)
     rows: list = []
@@ -485,6 +520,9 @@ def main() -> int:
           "(`tests/data/dense/README.md`, `tests/data/held_out/README.md`).", ""]
     name = "volume"
     with tempfile.TemporaryDirectory() as tmp:
+        if a.only == "floor":
+            floor_only(tmp, pathlib.Path(a.out))
+            return 0
         if a.only == "transport":
             name = "volume_transport"
             md[0] = "# Multiple scattering through the hair volume: the two transports"
