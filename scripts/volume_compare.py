@@ -314,6 +314,18 @@ def furnace_parts(sc: hs.Scene, mask: np.ndarray, images: dict, volumes: list, m
            "rather than by the strands a ray meets).", ""]
 
 
+CONVERGENCE_HEADS = ("blond_env", "blond_back")
+
+
+def convergence_head(name: str, tmp: str):
+    """A convergence head's truth, its max_depth-2 render, the scene drawn as
+    the truth's B-spline, and `accurate` without multiple scattering."""
+    ref = hs.read_exr(str(DENSE / f"{name}.exr"))
+    depth2 = hs.read_exr(str(DENSE / f"{name}_depth2.exr"))
+    sc = scene_without_settings(DENSE / f"{name}.json", tmp, curve=TRUTH_CURVE)
+    return ref, depth2, sc, hs.render(sc, W, H, quality="accurate", multiple_scattering="none")
+
+
 def convergence(tmp: str, rows: list, md: list, quick: bool) -> None:
     md += ["## Convergence: grid resolution x photons", "",
            "blond_env and blond_back, `accurate` with volume scattering, drawn as the truth's B-spline; relMSE "
@@ -323,11 +335,8 @@ def convergence(tmp: str, rows: list, md: list, quick: bool) -> None:
            "| head | cells a side | photons per light | relMSE | MS part / truth's | solve s |",
            "| --- | --- | --- | --- | --- | --- |"]
     floors = []
-    for name in ("blond_env", "blond_back"):
-        ref = hs.read_exr(str(DENSE / f"{name}.exr"))
-        depth2 = hs.read_exr(str(DENSE / f"{name}_depth2.exr"))
-        sc = scene_without_settings(DENSE / f"{name}.json", tmp, curve=TRUTH_CURVE)
-        none = hs.render(sc, W, H, quality="accurate", multiple_scattering="none")
+    for name in CONVERGENCE_HEADS:
+        ref, depth2, sc, none = convergence_head(name, tmp)
         errors = {}
         for res in ((48,) if quick else (32, 48, 64, 96)):
             for photons in ((1 << 16, 1 << 18) if quick else (1 << 16, 1 << 18, 1 << 20, 1 << 22)):
@@ -370,11 +379,8 @@ def floor_only(tmp: str, out: pathlib.Path) -> None:
     """The convergence section's floor paragraph alone, written into an
     existing volume.md in place of its own (`--only floor`)."""
     floors = []
-    for name in ("blond_env", "blond_back"):
-        ref = hs.read_exr(str(DENSE / f"{name}.exr"))
-        depth2 = hs.read_exr(str(DENSE / f"{name}_depth2.exr"))
-        sc = scene_without_settings(DENSE / f"{name}.json", tmp, curve=TRUTH_CURVE)
-        none = hs.render(sc, W, H, quality="accurate", multiple_scattering="none")
+    for name in CONVERGENCE_HEADS:
+        ref, depth2, sc, none = convergence_head(name, tmp)
         finest = (96, 1 << 22)
         img = hs.render(sc, W, H, quality="accurate",
                         multiple_scattering={"volume": {"resolution": finest[0], "photons": finest[1]}})
