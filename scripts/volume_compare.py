@@ -315,6 +315,9 @@ def furnace_parts(sc: hs.Scene, mask: np.ndarray, images: dict, volumes: list, m
 
 
 CONVERGENCE_HEADS = ("blond_env", "blond_back")
+#: The convergence grid (cells a side, photons a light); its last pair is the finest, the floor's.
+CONVERGENCE_CELLS = (32, 48, 64, 96)
+CONVERGENCE_PHOTONS = (1 << 16, 1 << 18, 1 << 20, 1 << 22)
 
 
 def convergence_head(name: str, tmp: str):
@@ -338,8 +341,8 @@ def convergence(tmp: str, rows: list, md: list, quick: bool) -> None:
     for name in CONVERGENCE_HEADS:
         ref, depth2, sc, none = convergence_head(name, tmp)
         errors = {}
-        for res in ((48,) if quick else (32, 48, 64, 96)):
-            for photons in ((1 << 16, 1 << 18) if quick else (1 << 16, 1 << 18, 1 << 20, 1 << 22)):
+        for res in ((48,) if quick else CONVERGENCE_CELLS):
+            for photons in (CONVERGENCE_PHOTONS[:2] if quick else CONVERGENCE_PHOTONS):
                 img, st, dt = timed(sc, quality="accurate",
                                     multiple_scattering={"volume": {"resolution": res, "photons": photons}})
                 e = hs.rel_mse(img, ref)
@@ -381,7 +384,7 @@ def floor_only(tmp: str, out: pathlib.Path) -> None:
     floors = []
     for name in CONVERGENCE_HEADS:
         ref, depth2, sc, none = convergence_head(name, tmp)
-        finest = (96, 1 << 22)
+        finest = (CONVERGENCE_CELLS[-1], CONVERGENCE_PHOTONS[-1])
         img = hs.render(sc, W, H, quality="accurate",
                         multiple_scattering={"volume": {"resolution": finest[0], "photons": finest[1]}})
         floors.append(floor_of(name, ref, depth2, none, hs.rel_mse(img, ref), finest))
