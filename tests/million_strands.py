@@ -1,5 +1,5 @@
 """Renders a million sub-pixel strands (one segment each, radius 1e-4, spread
-over the view) and prints `peak_rss_mb fragments non_finite bad_pixels` for
+over the view) and prints `peak_rss_mb before_mb fragments non_finite bad_pixels estimate_mb` for
 tests/test_stress.py test 7 (run in its own process so that its peak memory
 is its own: VmHWM, the process's own high-water mark, not getrusage's
 ru_maxrss, which a child started by fork and exec inherits from its parent,
@@ -38,4 +38,5 @@ def high_water_mb() -> float:
 before = high_water_mb()
 img, st = hs.render(scene, quality="fast", return_stats=True, progress=False)
 peak = high_water_mb()
-print(f"{peak:.0f} {before:.0f} {st['fragments']} {st['non_finite_pixels']} {int((~np.isfinite(img)).sum())}")
+print(f"{peak:.0f} {before:.0f} {st['fragments']} {st['non_finite_pixels']} {int((~np.isfinite(img)).sum())} "
+      f"{st['memory_estimate'] / 2**20:.0f}")

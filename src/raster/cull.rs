@@ -27,9 +27,9 @@ use glam::Vec3;
 /// `frustum`) and that no opaque sphere hides (where `spheres` is
 /// non-empty: [`hidden_behind`]), in order, and how many a sphere hid
 /// among those the frustum kept. The tests run in parallel; the kept
-/// segments move once, in place (a new 50 MB vector for a 25k-strand head,
-/// even filled in parallel, costs more in first-touch page faults:
-/// measured 6 ms in place, 32 ms into a new vector on 2 threads).
+/// segments are copied once into a new vector, in parallel
+/// ([`keep_marked`]), so that for a moment both are held: the render's
+/// memory estimate counts the second copy.
 pub fn visible_segments(
     segs: Vec<Segment>,
     grid: Option<TileGrid>,

@@ -88,6 +88,17 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
                 * (std::mem::size_of::<Segment>() + std::mem::size_of::<WorldSegment>()) as u64
                 + vertices * 12 * 2,
         ),
+        // Frustum and sphere culling copy the segments they keep into a
+        // new vector while the projected ones are alive
+        // (`cull::visible_segments`): at most a second copy.
+        (
+            "culled segments",
+            if opts.frustum_culling || (opts.opaque_culling && !scene.spheres.is_empty()) {
+                segments * std::mem::size_of::<Segment>() as u64
+            } else {
+                0
+            },
+        ),
         (
             "shadow maps",
             shadowed * shadow_map_bytes(opts.shadow_map_size.max(16), opts.shadow_model),

