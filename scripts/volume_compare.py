@@ -16,11 +16,14 @@ grid resolution x photons; the cost of the solve, of a new view, and of a
 
     python scripts/volume_compare.py [--out docs] [--quick]
     python scripts/volume_compare.py --only transport     # docs/volume_transport.md
+    python scripts/volume_compare.py --only cost          # the cost section of docs/volume.{md,csv}
+    python scripts/volume_compare.py --only floor         # the convergence floor paragraph
 
 `--only transport` runs one further section alone: the two transports
 (`volume.transport`: photons through the fiber medium, or between the
 fibers they really meet) over the grid's resolution on five heads, and in
-the white furnace.
+the white furnace. `--only cost` and `--only floor` re-measure one part
+of volume.md and write it in place of the old one.
 """
 
 from __future__ import annotations
@@ -397,6 +400,27 @@ def floor_only(tmp: str, out: pathlib.Path) -> None:
     (out / "volume.md").write_text("\n".join(page) + "\n")
 
 
+def cost_only(tmp: str, out: pathlib.Path) -> None:
+    """The cost section alone (`--only cost`): written into an existing
+    volume.md in place of its own (the last section), and its rows into
+    volume.csv in place of the cost and orbit rows."""
+    rows: list = []
+    md: list = []
+    cost(tmp, rows, md)
+    page = (out / "volume.md").read_text().splitlines()
+    at = [i for i, line in enumerate(page) if line == "## Cost"]
+    if len(at) != 1:
+        raise SystemExit(f"{out / 'volume.md'}: expected one cost section, found {len(at)}")
+    (out / "volume.md").write_text("\n".join(page[:at[0]] + md) + "\n")
+    with open(out / "volume.csv", newline="") as f:
+        old = [r for r in csv.DictReader(f) if r["section"] not in ("cost", "orbit")]
+    keys = sorted({k for r in old + rows for k in r})
+    with open(out / "volume.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=keys, restval="")
+        w.writeheader()
+        w.writerows(old + rows)
+
+
 TRANSPORT_HEADS = ("auburn_key", "black_top", "blond_back", "clumped_blond_key", "wavy_blond_rim")
 
 
@@ -434,7 +458,8 @@ def transport(tmp: str, rows: list, md: list) -> None:
 
 def cost(tmp: str, rows: list, md: list) -> None:
     name = "blond_back"
-    md += ["## Cost", "", f"{name} (10k strands x 16 segments, two directional lights), `accurate` and "
+    md += ["## Cost", "", f"This section alone: `--only cost`. {name} (10k strands x 16 segments, two directional "
+           "lights), `accurate` and "
            "`balanced` as the scene file draws it (the polyline), and `balanced` drawn as the truth's B-spline "
            "(the accuracy section's curve), 320x180: solves best of 3 (a material's first solve once); frames without multiple "
            "scattering and with the solve reused alternated, 7 of each, medians (the ratio: the median of the "
@@ -517,9 +542,10 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument("--quick", action="store_true", help="fewer convergence points")
-    ap.add_argument("--only", choices=["transport", "floor"],
+    ap.add_argument("--only", choices=["transport", "floor", "cost"],
                     help="transport: run that section alone, into docs/volume_transport.md; floor: the convergence "
-                         "section's floor paragraph alone, written into docs/volume.md")
+                         "section's floor paragraph alone, written into docs/volume.md; cost: the cost section "
+                         "alone, written into docs/volume.md and volume.csv")
     a = ap.parse_args()
     warnings.simplefilter("ignore", DeprecationWarning)
     rows: list = []
@@ -531,6 +557,9 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         if a.only == "floor":
             floor_only(tmp, pathlib.Path(a.out))
+            return 0
+        if a.only == "cost":
+            cost_only(tmp, pathlib.Path(a.out))
             return 0
         if a.only == "transport":
             name = "volume_transport"

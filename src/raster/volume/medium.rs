@@ -96,15 +96,7 @@ fn empty_distance(hair: impl Fn(usize) -> bool, dims: [usize; 3]) -> Vec<u8> {
 
 /// The Morton code of dense cell index `n` on a grid of `dims` cells.
 fn morton_of_cell(n: u32, dims: [usize; 3]) -> u64 {
-    let n = n as usize;
-    crate::raster::traced::morton_code(
-        [
-            n % dims[0],
-            (n / dims[0]) % dims[1],
-            n / (dims[0] * dims[1]),
-        ]
-        .map(|a| a as u32),
-    )
+    crate::raster::traced::morton_code(grid_coords(dims, n as usize).map(|a| a as u32))
 }
 
 /// The grid the light is tallied on: [`FINE`] medium voxels a side per
@@ -171,6 +163,37 @@ pub fn dense_index(dims: [usize; 3], i: i64, j: i64, k: i64) -> Option<usize> {
     let inside = |x: i64, n: usize| x >= 0 && x < n as i64;
     (inside(i, dims[0]) && inside(j, dims[1]) && inside(k, dims[2]))
         .then(|| (k as usize * dims[1] + j as usize) * dims[0] + i as usize)
+}
+
+/// `(i, j, k)` of dense index `n` of a grid of `dims` (the inverse of
+/// [`dense_index`]).
+#[inline]
+pub fn grid_coords(dims: [usize; 3], n: usize) -> [usize; 3] {
+    [
+        n % dims[0],
+        (n / dims[0]) % dims[1],
+        n / (dims[0] * dims[1]),
+    ]
+}
+
+/// The voxel `(i, j, k)` holding `p` of a grid of `dims` voxels of side
+/// `voxel` from `origin` (None: outside, or not finite).
+#[inline]
+fn voxel_coords(origin: Vec3, voxel: f32, dims: [usize; 3], p: Vec3) -> Option<[usize; 3]> {
+    let q = (p - origin) / voxel;
+    if !(q.min_element() >= 0.0) {
+        return None;
+    }
+    let ijk = [q.x as usize, q.y as usize, q.z as usize];
+    (ijk[0] < dims[0] && ijk[1] < dims[1] && ijk[2] < dims[2]).then_some(ijk)
+}
+
+/// The dense index of the cell holding voxel `ijk`, on a grid of `cells`
+/// cells of [`FINE`]³ voxels.
+#[inline]
+fn cell_holding(cells: [usize; 3], ijk: [usize; 3]) -> usize {
+    let [i, j, k] = ijk.map(|x| x / FINE);
+    (k * cells[1] + j) * cells[0] + i
 }
 
 /// A 64-bit mix (splitmix64's finalizer).
@@ -243,18 +266,12 @@ impl Occupancy {
         };
         for st in [&scene.strands, &scene.cards.fibers] {
             for_each_piece(st, voxel, |p, _, _| {
-                let q = (p - origin) / voxel;
-                if !(q.min_element() >= 0.0) {
+                let Some(ijk @ [i, j, k]) = voxel_coords(origin, voxel, dims, p) else {
                     return;
-                }
-                let (i, j, k) = (q.x as usize, q.y as usize, q.z as usize);
-                if i >= dims[0] || j >= dims[1] || k >= dims[2] {
-                    return;
-                }
+                };
                 if mark(&mut voxel_bits, (k * dims[1] + j) * dims[0] + i) {
                     hair_voxels += 1;
-                    let n = ((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE;
-                    hair_cells += usize::from(mark(&mut cell_bits, n));
+                    hair_cells += usize::from(mark(&mut cell_bits, cell_holding(cd, ijk)));
                 }
             });
         }
@@ -356,11 +373,7 @@ impl Medium {
         c.centroid.clear();
         let d = self.dims;
         let per_cell = 1.0 / (FINE * FINE * FINE) as f32;
-        let cell_of_voxel = |v: u32| {
-            let v = v as usize;
-            let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
-            ((k / FINE) * cd[1] + j / FINE) * cd[0] + i / FINE
-        };
+        let cell_of_voxel = |v: u32| cell_holding(cd, grid_coords(d, v as usize));
         // the cells holding hair, numbered along the Morton curve: cells
         // near one another in space lie near one another in the tallies
         // (the filter reads each cell's 26 neighbours, a photon's flight
@@ -381,8 +394,7 @@ impl Medium {
         for ((&v, &f), m) in self.voxel_of.iter().zip(free).zip(&self.moments) {
             let w = m[WEIGHT];
             let n = cell_of_voxel(v);
-            let v = v as usize;
-            let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
+            let [i, j, k] = grid_coords(d, v as usize);
             let s = c.slot[n] as usize;
             c.weight[s] += f * w * per_cell;
             // the voxel's centre within its cell, in cells from the cell's centre
@@ -409,13 +421,8 @@ impl Medium {
 
     /// The fraction of voxel `v` outside `scene`'s opaque spheres.
     fn free_fraction(&self, scene: &Scene, v: usize) -> f32 {
-        let d = self.dims;
-        let corner = self.origin
-            + Vec3::new(
-                (v % d[0]) as f32,
-                ((v / d[0]) % d[1]) as f32,
-                (v / (d[0] * d[1])) as f32,
-            ) * self.voxel;
+        let corner =
+            self.origin + Vec3::from(grid_coords(self.dims, v).map(|x| x as f32)) * self.voxel;
         free_fraction(scene, corner, self.voxel)
     }
 
@@ -463,13 +470,8 @@ impl Medium {
     /// Dense index of the voxel holding `p`.
     #[inline]
     pub fn voxel_at(&self, p: Vec3) -> Option<usize> {
-        let q = (p - self.origin) / self.voxel;
-        if !(q.min_element() >= 0.0) {
-            return None;
-        }
-        let (i, j, k) = (q.x as usize, q.y as usize, q.z as usize);
-        (i < self.dims[0] && j < self.dims[1] && k < self.dims[2])
-            .then(|| (k * self.dims[1] + j) * self.dims[0] + i)
+        let [i, j, k] = voxel_coords(self.origin, self.voxel, self.dims, p)?;
+        Some((k * self.dims[1] + j) * self.dims[0] + i)
     }
 
     /// The weight of the light tallied in slot `s`'s voxel: its fiber

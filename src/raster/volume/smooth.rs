@@ -51,11 +51,7 @@ pub(super) fn smooth(
             || (Vec::with_capacity(27), vec![0.0f32; 6 * block]),
             |(nbrs, acc): &mut (Vec<(usize, f32, Vec3)>, Vec<f32>), (s, rows)| {
                 let v = m.cell_of[s] as usize;
-                let (i, j, k) = (
-                    (v % d[0]) as i64,
-                    ((v / d[0]) % d[1]) as i64,
-                    (v / (d[0] * d[1])) as i64,
-                );
+                let [i, j, k] = medium::grid_coords(d, v).map(|x| x as i64);
                 // the neighbours: slot, weight, position from this cell's fibers
                 nbrs.clear();
                 let own = m.centroid[s];
