@@ -18,12 +18,14 @@ grid resolution x photons; the cost of the solve, of a new view, and of a
     python scripts/volume_compare.py --only transport     # docs/volume_transport.md
     python scripts/volume_compare.py --only cost          # the cost section of docs/volume.{md,csv}
     python scripts/volume_compare.py --only floor         # the convergence floor paragraph
+    python scripts/volume_compare.py --only reference-noise   # the truths' noise in the MS part
 
 `--only transport` runs one further section alone: the two transports
 (`volume.transport`: photons through the fiber medium, or between the
 fibers they really meet) over the grid's resolution on five heads, and in
 the white furnace. `--only cost` and `--only floor` re-measure one part
-of volume.md and write it in place of the old one.
+of volume.md and write it in place of the old one; `--only reference-noise`
+rewrites the section on the references' noise from volume.csv.
 """
 
 from __future__ import annotations
@@ -179,6 +181,65 @@ def accuracy(tmp: str, rows: list, md: list) -> None:
             print(f"{name:20s} {label:18s} {ratio(img, ref)} relMSE {e:.2e} MS {ms} single {single} {dt:.2f}s",
                   flush=True)
     md += polyline + [""]
+
+
+# The references' own noise, as measured when they were rendered: relMSE
+# between two independent halves of the max_depth-64 truth and of the
+# max_depth-2 render (tests/data/dense/README.md, tests/data/held_out/README.md).
+HALVES_RELMSE = {
+    "auburn_key": (9.8e-5, 1.1e-4), "blond_back": (1.1e-3, 9.8e-4), "black_top": (7.6e-5, 2.9e-4),
+    "blond_env": (6.2e-4, 5.0e-4), "brown_side": (1.5e-4, 2.7e-4), "ginger_two": (5.9e-4, 8.7e-4),
+    "wavy_blond_rim": (6.4e-4, 5.1e-4), "curly_auburn_point": (4.9e-4, 3.7e-4), "wavy_black_env": (3.0e-4, 5.8e-4),
+    "clumped_blond_key": (6.3e-4, 2.0e-4), "curly_blond_env": (1.1e-3, 5.5e-4), "wavy_ginger_back": (3.9e-4, 4.6e-4),
+    "straight_brown_back": (2.0e-4, 3.8e-4),
+}
+
+
+def ms_part_noise(ref: np.ndarray, depth2: np.ndarray, halves: tuple[float, float]) -> np.ndarray:
+    """Standard error per channel of the truth's multiple-scattering mean
+    (the truth's mean less the max_depth-2 render's), over that mean. A
+    reference that is the mean of two halves whose relMSE is h has, per
+    pixel, variance h (r^2 + 0.01) / 4 (relMSE's weighting, taken as the
+    same relative noise in every pixel); pixels are independent (Mitsuba's
+    box filter); the two renders are independent."""
+    var = sum(h * (img[..., :3].reshape(-1, 3).astype(np.float64) ** 2 + 0.01) / 4
+              for img, h in ((ref, halves[0]), (depth2, halves[1])))
+    n = var.shape[0]
+    ms = mean(ref) - mean(depth2)
+    return np.sqrt(var.sum(0)) / n / ms
+
+
+def reference_noise(accuracy_rows: list, md: list) -> None:
+    """The section on how well each truth knows its multiple-scattering
+    part: its share of the truth, its standard error, and whether the
+    accurate preset's miss or hit of the 10% target stands beyond twice
+    that error (two halves of a reference differ by about twice the
+    standard error of their mean)."""
+    md += ["## The references' noise in the multiple-scattering part", "",
+           "This section alone: `--only reference-noise` (it reads the accuracy rows of volume.csv). The "
+           "multiple-scattering part is the truth less Mitsuba's max_depth 2; where it is a small share of the "
+           "image, both renders' noise is large against it. Per channel (R/G/B): the part's share of the truth's "
+           "mean; the standard error of its mean over the part (each reference's noise from the relMSE of its two "
+           "halves, taken as the same relative noise in every pixel; box-filtered pixels are independent); the "
+           "`accurate` volume render's part over it (the accuracy table); and per channel whether that ratio is "
+           "resolved against the 10% target: `met` or `missed` where |ratio - 1| is below or above 0.1 by more "
+           "than twice the standard error, `noise` where it is not.", "",
+           "| head | MS share of the truth | standard error / MS | accurate MS / truth's | verdict |",
+           "| --- | --- | --- | --- | --- |"]
+    fmt = lambda a: "/".join(f"{x:.3f}" for x in a)  # noqa: E731
+    for r in accuracy_rows:
+        name = r["head"]
+        refdir = DENSE if (DENSE / f"{name}.exr").exists() else HELD
+        ref = hs.read_exr(str(refdir / f"{name}.exr"))
+        depth2 = hs.read_exr(str(refdir / f"{name}_depth2.exr"))
+        share = (mean(ref) - mean(depth2)) / mean(ref)
+        se = ms_part_noise(ref, depth2, HALVES_RELMSE[name])
+        ms = np.array([float(x) for x in r["ms_ratio"].split("/")])
+        off = np.abs(ms - 1)
+        verdict = ["met" if o + 2 * e * m < 0.1 else "missed" if o - 2 * e * m > 0.1 else "noise"
+                   for o, e, m in zip(off, se, ms)]
+        md.append(f"| {name} | {fmt(share)} | {fmt(se)} | {r['ms_ratio']} | {'/'.join(verdict)} |")
+    md.append("")
 
 
 def karis(tmp: str, rows: list, md: list) -> None:
@@ -400,6 +461,27 @@ def floor_only(tmp: str, out: pathlib.Path) -> None:
     (out / "volume.md").write_text("\n".join(page) + "\n")
 
 
+def reference_noise_only(out: pathlib.Path) -> None:
+    """The references' noise section alone (`--only reference-noise`),
+    from the accuracy rows of an existing volume.csv, written into
+    volume.md in place of its own (or before the KarisHair section)."""
+    with open(out / "volume.csv", newline="") as f:
+        acc = [r for r in csv.DictReader(f) if r["section"] == "accuracy" and r["config"] == "accurate, volume"]
+    md: list = []
+    reference_noise(acc, md)
+    page = (out / "volume.md").read_text().splitlines()
+    start = [i for i, line in enumerate(page) if line == md[0]]
+    if start:
+        end = next((i for i in range(start[0] + 1, len(page)) if page[i].startswith("## ")), len(page))
+        page[start[0]:end] = md
+    else:
+        at = [i for i, line in enumerate(page) if line.startswith("## KarisHair")]
+        if len(at) != 1:
+            raise SystemExit(f"{out / 'volume.md'}: expected one KarisHair section, found {len(at)}")
+        page[at[0]:at[0]] = md
+    (out / "volume.md").write_text("\n".join(page) + "\n")
+
+
 def cost_only(tmp: str, out: pathlib.Path) -> None:
     """The cost section alone (`--only cost`): written into an existing
     volume.md in place of its own (the last section), and its rows into
@@ -542,10 +624,11 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument("--quick", action="store_true", help="fewer convergence points")
-    ap.add_argument("--only", choices=["transport", "floor", "cost"],
+    ap.add_argument("--only", choices=["transport", "floor", "cost", "reference-noise"],
                     help="transport: run that section alone, into docs/volume_transport.md; floor: the convergence "
                          "section's floor paragraph alone, written into docs/volume.md; cost: the cost section "
-                         "alone, written into docs/volume.md and volume.csv")
+                         "alone, written into docs/volume.md and volume.csv; reference-noise: the section on the "
+                         "references' noise in the multiple-scattering part, from volume.csv")
     a = ap.parse_args()
     warnings.simplefilter("ignore", DeprecationWarning)
     rows: list = []
@@ -561,6 +644,9 @@ def main() -> int:
         if a.only == "cost":
             cost_only(tmp, pathlib.Path(a.out))
             return 0
+        if a.only == "reference-noise":
+            reference_noise_only(pathlib.Path(a.out))
+            return 0
         if a.only == "transport":
             name = "volume_transport"
             md[0] = "# Multiple scattering through the hair volume: the two transports"
@@ -568,6 +654,8 @@ def main() -> int:
             transport(tmp, rows, md)
         else:
             accuracy(tmp, rows, md)
+            reference_noise([r for r in rows if r["section"] == "accuracy" and r["config"] == "accurate, volume"],
+                            md)
             karis(tmp, rows, md)
             furnace(tmp, rows, md, a.quick)
             convergence(tmp, rows, md, a.quick)

@@ -289,3 +289,35 @@ print(json.dumps(dict(estimate=st["memory_estimate"], grown=high_water() - befor
     m = json.loads(out.strip().splitlines()[-1])
     assert m["grown"] <= m["estimate"], m
     assert m["grown"] >= m["estimate"] / 3, m
+
+
+def test_14_reference_noise_is_the_spread_of_simulated_references():
+    """scripts/volume_compare.py's standard error of a truth's multiple-
+    scattering mean (`ms_part_noise`, from the relMSE of each reference's
+    two halves), against the spread of that mean over 400 simulated pairs
+    of references (a truth and a max_depth-2 render, each the mean of two
+    noisy halves with the per-pixel noise relMSE assumes, variance
+    proportional to r^2 + 0.01). The spread of 400 draws is known to about
+    1/sqrt(800) = 3.5%; the bound is 12%."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "scripts"))
+    import volume_compare as vc
+
+    rng = np.random.default_rng(14)
+    truth = rng.uniform(0.0, 1.0, (40, 60, 3)) * np.array([1.0, 0.6, 0.3])
+    depth2 = truth * np.array([0.8, 0.9, 0.97])  # the parts: 20%, 10%, 3% of the truth
+    sigma = {"truth": 0.05, "depth2": 0.03}  # a half's noise, relative to sqrt(r^2 + 0.01)
+
+    def reference(img, s):
+        halves = [img + s * np.sqrt(img ** 2 + 0.01) * rng.standard_normal(img.shape) for _ in range(2)]
+        return (halves[0] + halves[1]) / 2, float(np.mean((halves[0] - halves[1]) ** 2 / (img ** 2 + 0.01)))
+
+    means, estimates = [], []
+    for _ in range(400):
+        ref, h_ref = reference(truth, sigma["truth"])
+        d2, h_d2 = reference(depth2, sigma["depth2"])
+        means.append(ref.reshape(-1, 3).mean(0) - d2.reshape(-1, 3).mean(0))
+        estimates.append(vc.ms_part_noise(ref, d2, (h_ref, h_d2)))
+    ms = truth.reshape(-1, 3).mean(0) - depth2.reshape(-1, 3).mean(0)
+    spread = np.std(means, axis=0) / ms
+    estimate = np.mean(estimates, axis=0)
+    assert np.all(np.abs(estimate / spread - 1) < 0.12), (estimate, spread)
