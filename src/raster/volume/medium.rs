@@ -181,7 +181,7 @@ pub fn grid_coords(dims: [usize; 3], n: usize) -> [usize; 3] {
 #[inline]
 fn voxel_coords(origin: Vec3, voxel: f32, dims: [usize; 3], p: Vec3) -> Option<[usize; 3]> {
     let q = (p - origin) / voxel;
-    if !(q.min_element() >= 0.0) {
+    if !(q.is_finite() && q.min_element() >= 0.0) {
         return None;
     }
     let ijk = [q.x as usize, q.y as usize, q.z as usize];
