@@ -209,9 +209,10 @@ def ms_part_noise(ref: np.ndarray, depth2: np.ndarray, halves: tuple[float, floa
     return np.sqrt(var.sum(0)) / n / ms
 
 
-def reference_noise(accuracy_rows: list, md: list) -> None:
+def reference_noise(rows: list, md: list) -> None:
     """The section on how well each truth knows its multiple-scattering
-    part: its share of the truth, its standard error, and whether the
+    part (from the accuracy section's `accurate, volume` rows among
+    `rows`): its share of the truth, its standard error, and whether the
     accurate preset's miss or hit of the 10% target stands beyond twice
     that error (two halves of a reference differ by about twice the
     standard error of their mean)."""
@@ -227,7 +228,7 @@ def reference_noise(accuracy_rows: list, md: list) -> None:
            "| head | MS share of the truth | standard error / MS | accurate MS / truth's | verdict |",
            "| --- | --- | --- | --- | --- |"]
     fmt = lambda a: "/".join(f"{x:.3f}" for x in a)  # noqa: E731
-    for r in accuracy_rows:
+    for r in (r for r in rows if r["section"] == "accuracy" and r["config"] == "accurate, volume"):
         name = r["head"]
         refdir = DENSE if (DENSE / f"{name}.exr").exists() else HELD
         ref = hs.read_exr(str(refdir / f"{name}.exr"))
@@ -466,20 +467,28 @@ def reference_noise_only(out: pathlib.Path) -> None:
     from the accuracy rows of an existing volume.csv, written into
     volume.md in place of its own (or before the KarisHair section)."""
     with open(out / "volume.csv", newline="") as f:
-        acc = [r for r in csv.DictReader(f) if r["section"] == "accuracy" and r["config"] == "accurate, volume"]
+        rows = list(csv.DictReader(f))
     md: list = []
-    reference_noise(acc, md)
-    page = (out / "volume.md").read_text().splitlines()
+    reference_noise(rows, md)
+    write_section(out / "volume.md", md, before="## KarisHair")
+
+
+def write_section(path: pathlib.Path, md: list, before: str) -> None:
+    """The section `md` (its first line the heading) written into the page
+    at `path` in place of the section of that heading (up to the next
+    `## ` heading or the end), or, where the page has none, before the
+    line that starts with `before`."""
+    page = path.read_text().splitlines()
     start = [i for i, line in enumerate(page) if line == md[0]]
     if start:
         end = next((i for i in range(start[0] + 1, len(page)) if page[i].startswith("## ")), len(page))
         page[start[0]:end] = md
     else:
-        at = [i for i, line in enumerate(page) if line.startswith("## KarisHair")]
+        at = [i for i, line in enumerate(page) if line.startswith(before)]
         if len(at) != 1:
-            raise SystemExit(f"{out / 'volume.md'}: expected one KarisHair section, found {len(at)}")
+            raise SystemExit(f"{path}: expected one '{before}' line, found {len(at)}")
         page[at[0]:at[0]] = md
-    (out / "volume.md").write_text("\n".join(page) + "\n")
+    path.write_text("\n".join(page) + "\n")
 
 
 def cost_only(tmp: str, out: pathlib.Path) -> None:
@@ -489,11 +498,7 @@ def cost_only(tmp: str, out: pathlib.Path) -> None:
     rows: list = []
     md: list = []
     cost(tmp, rows, md)
-    page = (out / "volume.md").read_text().splitlines()
-    at = [i for i, line in enumerate(page) if line == "## Cost"]
-    if len(at) != 1:
-        raise SystemExit(f"{out / 'volume.md'}: expected one cost section, found {len(at)}")
-    (out / "volume.md").write_text("\n".join(page[:at[0]] + md) + "\n")
+    write_section(out / "volume.md", md, before="## Cost")
     with open(out / "volume.csv", newline="") as f:
         old = [r for r in csv.DictReader(f) if r["section"] not in ("cost", "orbit")]
     keys = sorted({k for r in old + rows for k in r})
@@ -654,8 +659,7 @@ def main() -> int:
             transport(tmp, rows, md)
         else:
             accuracy(tmp, rows, md)
-            reference_noise([r for r in rows if r["section"] == "accuracy" and r["config"] == "accurate, volume"],
-                            md)
+            reference_noise(rows, md)
             karis(tmp, rows, md)
             furnace(tmp, rows, md, a.quick)
             convergence(tmp, rows, md, a.quick)
