@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 
 # The Mitsuba comparison set, shared with `hairshade validate`:
@@ -73,3 +76,11 @@ def pinhole_rays(camera: dict, xs: np.ndarray, ys: np.ndarray, width: int, heigh
          + up * ((1 - 2 * ys / height) * th)[..., None])
     return eye, d / np.linalg.norm(d, axis=-1, keepdims=True)
 
+
+def write_scene(folder: Path, hair: dict | None = None, name: str = "s.json", **top) -> Path:
+    """A minimal scene file in `folder` (camera at z = 3 looking at the origin)."""
+    d = {"hairshade_scene": 1, "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "resolution": [32, 18]},
+         "hair": hair if hair is not None else {}, **top}
+    p = folder / name
+    p.write_text(json.dumps(d))
+    return p
