@@ -23,6 +23,23 @@ use super::view::View;
 use crate::raster::scene::HairShading;
 use glam::Vec3;
 
+/// The spheres [`visible_segments`] culls hair behind under `opts`: the
+/// scene's, where opaque culling is on.
+pub fn culling_spheres<'a>(scene: &'a Scene, opts: &RenderOptions) -> &'a [Sphere] {
+    if opts.opaque_culling {
+        &scene.spheres
+    } else {
+        &[]
+    }
+}
+
+/// Whether a render with `opts` may copy its segments in
+/// [`visible_segments`] (frustum culling, or spheres to cull behind): what
+/// the render's memory estimate counts.
+pub fn may_copy_segments(scene: &Scene, opts: &RenderOptions) -> bool {
+    opts.frustum_culling || !culling_spheres(scene, opts).is_empty()
+}
+
 /// The segments that reach at least one tile (the binning test, where
 /// `frustum`) and that no opaque sphere hides (where `spheres` is
 /// non-empty: [`hidden_behind`]), in order, and how many a sphere hid

@@ -93,7 +93,7 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> MemoryEstimate {
         // (`cull::visible_segments`): at most a second copy.
         (
             "culled segments",
-            if opts.frustum_culling || (opts.opaque_culling && !scene.spheres.is_empty()) {
+            if super::cull::may_copy_segments(scene, opts) {
                 segments * std::mem::size_of::<Segment>() as u64
             } else {
                 0

@@ -304,11 +304,7 @@ pub fn render_with_progress(
     (segs, dropped) = cull::visible_segments(
         segs,
         opts.frustum_culling.then_some(grid),
-        if opts.opaque_culling {
-            &scene.spheres
-        } else {
-            &[]
-        },
+        cull::culling_spheres(scene, opts),
         &view,
     );
     stats.culled_behind_opaque += dropped;

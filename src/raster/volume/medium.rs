@@ -156,13 +156,20 @@ fn free_fraction(scene: &Scene, corner: Vec3, size: f32) -> f32 {
     free.max(1) as f32 / 64.0
 }
 
+/// The dense index of cell or voxel `ijk` (inside) of a grid of `dims`:
+/// `i` runs fastest.
+#[inline]
+fn dense(dims: [usize; 3], [i, j, k]: [usize; 3]) -> usize {
+    (k * dims[1] + j) * dims[0] + i
+}
+
 /// The dense index of cell or voxel `(i, j, k)` of a grid of `dims`, or
 /// None outside it.
 #[inline]
 pub fn dense_index(dims: [usize; 3], i: i64, j: i64, k: i64) -> Option<usize> {
     let inside = |x: i64, n: usize| x >= 0 && x < n as i64;
     (inside(i, dims[0]) && inside(j, dims[1]) && inside(k, dims[2]))
-        .then(|| (k as usize * dims[1] + j as usize) * dims[0] + i as usize)
+        .then(|| dense(dims, [i as usize, j as usize, k as usize]))
 }
 
 /// `(i, j, k)` of dense index `n` of a grid of `dims` (the inverse of
@@ -192,8 +199,7 @@ fn voxel_coords(origin: Vec3, voxel: f32, dims: [usize; 3], p: Vec3) -> Option<[
 /// cells of [`FINE`]³ voxels.
 #[inline]
 fn cell_holding(cells: [usize; 3], ijk: [usize; 3]) -> usize {
-    let [i, j, k] = ijk.map(|x| x / FINE);
-    (k * cells[1] + j) * cells[0] + i
+    dense(cells, ijk.map(|x| x / FINE))
 }
 
 /// A 64-bit mix (splitmix64's finalizer).
@@ -266,10 +272,10 @@ impl Occupancy {
         };
         for st in [&scene.strands, &scene.cards.fibers] {
             for_each_piece(st, voxel, |p, _, _| {
-                let Some(ijk @ [i, j, k]) = voxel_coords(origin, voxel, dims, p) else {
+                let Some(ijk) = voxel_coords(origin, voxel, dims, p) else {
                     return;
                 };
-                if mark(&mut voxel_bits, (k * dims[1] + j) * dims[0] + i) {
+                if mark(&mut voxel_bits, dense(dims, ijk)) {
                     hair_voxels += 1;
                     hair_cells += usize::from(mark(&mut cell_bits, cell_holding(cd, ijk)));
                 }
@@ -470,8 +476,7 @@ impl Medium {
     /// Dense index of the voxel holding `p`.
     #[inline]
     pub fn voxel_at(&self, p: Vec3) -> Option<usize> {
-        let [i, j, k] = voxel_coords(self.origin, self.voxel, self.dims, p)?;
-        Some((k * self.dims[1] + j) * self.dims[0] + i)
+        voxel_coords(self.origin, self.voxel, self.dims, p).map(|ijk| dense(self.dims, ijk))
     }
 
     /// The weight of the light tallied in slot `s`'s voxel: its fiber
