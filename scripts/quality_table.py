@@ -35,6 +35,14 @@ NOISE = {"auburn_key": 9.8e-5, "black_top": 7.6e-5, "blond_back": 1.1e-3, "blond
          "brown_side": 1.5e-4, "ginger_two": 5.9e-4, "demo_head": 5.5e-3, "card_head": 4.7e-3}
 
 
+def write_csv(path: pathlib.Path, rows: list[dict]) -> None:
+    """`rows` as a CSV file, the first row's keys as its columns."""
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
 def cpu() -> str:
     """The CPU's model name, its cores and the vector level the kernels run at."""
     from hairshade.demo import cpu_name
@@ -122,10 +130,7 @@ def main() -> int:
     rows = measure(heads, args.repeats)
     command = "python scripts/quality_table.py " + " ".join(sys.argv[1:])
     (pathlib.Path(args.out) / "quality.md").write_text(markdown(rows, command.strip()))
-    with open(pathlib.Path(args.out) / "quality.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(pathlib.Path(args.out) / "quality.csv", rows)
     print(f"-> {args.out}/quality.md")
     return 0
 

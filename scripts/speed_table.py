@@ -83,13 +83,20 @@ def against(img: np.ndarray, truth: np.ndarray) -> np.ndarray | None:
     return img[..., :3].reshape(th, k, tw, k, 3).mean((1, 3))
 
 
+def scene_at(name: str, width: int, height: int) -> hs.Scene:
+    """The dense head `name` with its settings reduced to `quality` alone,
+    at `width` x `height`."""
+    scene = preset_scene(name)
+    scene.camera["width"], scene.camera["height"] = width, height
+    return scene
+
+
 def measure(heads: tuple[str, ...], repeats: int):
     presets, speedups = [], []
     for name in heads:
         refs = truths(name)
         for w, h in SIZES:
-            scene = preset_scene(name)
-            scene.camera["width"], scene.camera["height"] = w, h
+            scene = scene_at(name, w, h)
             fast_s = None
             for q in options.QUALITIES:
                 img, s = timed(scene, repeats, quality=q)
@@ -166,7 +173,7 @@ def markdown(presets, speedups, command: str) -> str:
             "decided at the strand vertices in `balanced` (KarisHair heads only: ChiangHair's near field traces its "
             "own probes, and its images do not change), vertex shading, its vertices shaded on demand (the exact "
             "speed-up `vertices_on_demand`, against every vertex in view shaded before the tiles) and hair culled "
-            "behind 2% transmittance (rather than 0.1%) in `fast`; `lod: \"auto\"` is not in any preset.", "",
+            "behind 2% transmittance (rather than 0.1%) in `fast`; `lod: \"auto\"` is not in any preset (what each fraction costs: docs/lod_tradeoff.md).", "",
             "| head | speed-up | quality | before (s) | after (s) | speed | relMSE | mean off by |",
             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in speedups:

@@ -258,7 +258,8 @@ class RenderSettings(TypedDict, total=False):
         "shadow, the near field), the environment and multiple scattering per vertex and interpolated; "
         "vertex: everything per vertex")]
     lod: Annotated[Union[float, Literal["auto"]], Native("lod"), Doc(
-        "the fraction of the strands drawn, each wider by its inverse, or 'auto' (from their width on screen)")]
+        "the fraction of the strands drawn, each wider by its inverse, or 'auto' (from their width on screen; "
+        "frame against error: docs/lod_tradeoff.md)")]
     guides: Annotated[Union[float, Sequence[int]], Native("guides"), _GUIDES, Doc(
         "guide-strand lighting: the fraction of the strands shaded at their vertices (the guides), or the guide "
         "strands' indices; every other strand takes its vertices' values from its 3 nearest guides at the same "
