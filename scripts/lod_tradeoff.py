@@ -49,8 +49,7 @@ def measure(heads: tuple[str, ...], fractions: list[float | str], repeats: int) 
             scene = scene_at(name, w, h)
             first = None
             for lod in fractions:
-                img, s = timed(scene, repeats, quality="fast", lod=lod)
-                _, stats = hs.render(scene, quality="fast", lod=lod, progress=False, return_stats=True)
+                (img, stats), s = timed(scene, repeats, quality="fast", lod=lod, return_stats=True)
                 truth = next(t for t in sorted(refs, key=lambda t: -t.size) if against(img, t) is not None)
                 small = against(img, truth)
                 r = ratio(small, truth)
