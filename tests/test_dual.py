@@ -171,8 +171,9 @@ DENSE_COVERAGE = {
 def test_07_coverage_dual_traced_against_path_tracing(name):
     d = json.loads((DENSE / f"{name}.json").read_text())
     ref = hs.read_exr(str(DENSE / f"{name}.exr"))[..., :3]
-    # per fragment: the scene's quality 'fast' shades per vertex
-    d["render"].update(transparency="coverage", multiple_scattering="dual", shadow_model="traced", shading="pixel")
+    # per fragment and every strand: the scene's quality 'fast' shades per vertex, at its level of detail
+    d["render"].update(transparency="coverage", multiple_scattering="dual", shadow_model="traced", shading="pixel",
+                       lod=1.0)
     img = hs.render(hs.Scene.from_dict(d))
     rel = hs.rel_mse(img, ref)
     ratio = img.reshape(-1, 3).mean(0) / ref.reshape(-1, 3).mean(0)
@@ -242,7 +243,7 @@ def test_09_near_field_single_scattering_against_path_tracing():
     ratio = {}
     for near in (False, True):
         d["render"].update(transparency="coverage", multiple_scattering="none", shadow_model="traced", near_field=near,
-                           shading="pixel")
+                           shading="pixel", lod=1.0)
         ratio[near] = mean(hs.render(hs.Scene.from_dict(d))) / truth
     print({k: np.round(v, 3) for k, v in ratio.items()})
     assert np.abs(ratio[True] - 1).max() < 0.05, ratio

@@ -97,15 +97,15 @@ def test_06_all_terms_darken_a_shadowed_head_and_err_more_with_fewer_guides():
     strand seen from outside is lit more than the guides around it, most of
     which lie deeper in the hair, so the image darkens (measured on
     auburn_key at 160x90: 0.93, 0.89, 0.85 of the full mean at 1/4, 1/10,
-    1/30; bound 0.97); without shadows the same guides keep the mean
+    1/30; bound 0.97; every strand drawn, lod 1); without shadows the same guides keep the mean
     within 0.15% at 1/10 (bound 0.3%), so the shadows are the cause.
     The error against shading every strand grows as the guides thin out
     (measured 1.1e-4, 2.4e-4, 3.9e-4)."""
     s = _dense("auburn_key")
-    full = hs.render(s, quality="fast")
+    full = hs.render(s, quality="fast", lod=1.0)
     errs, means = [], []
     for f in (0.25, 0.1, 1 / 30):
-        img = hs.render(s, quality="fast", guides=f, guide_terms="all")
+        img = hs.render(s, quality="fast", lod=1.0, guides=f, guide_terms="all")
         errs.append(hs.rel_mse(img, full))
         means.append(img.mean() / full.mean())
     print(errs, means)
@@ -117,8 +117,8 @@ def test_06_all_terms_darken_a_shadowed_head_and_err_more_with_fewer_guides():
     for light in d["lights"]:
         light["shadows"] = False
     unshadowed = hs.Scene.from_dict(d, base_dir=str(DENSE))
-    full = hs.render(unshadowed, quality="fast")
-    img = hs.render(unshadowed, quality="fast", guides=0.1, guide_terms="all")
+    full = hs.render(unshadowed, quality="fast", lod=1.0)
+    img = hs.render(unshadowed, quality="fast", lod=1.0, guides=0.1, guide_terms="all")
     assert abs(img.mean() / full.mean() - 1) < 3e-3, img.mean() / full.mean()
 
 

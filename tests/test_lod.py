@@ -63,17 +63,26 @@ def test_03_fewer_wider_strands_keep_the_hair_brightness():
     assert errs[0] < errs[1] < errs[2]
 
 
-def test_04_auto_follows_the_strand_width_on_screen():
-    """auto = clamp(w / 2 px, 1/8, 1) with w the median projected strand
-    width: halving the resolution halves w and so the fraction (away from
-    the clamps); the fraction is never below 1/8."""
-    s = _head(2000, (1280, 720))
-    _, big = hs.render(s, lod="auto", return_stats=True)
-    _, small = hs.render(s, 640, 360, lod="auto", return_stats=True)
-    assert 0.125 < small["lod_fraction"] < big["lod_fraction"] < 1.0
+def test_04_auto_follows_the_strand_width_and_depth_on_screen():
+    """auto = clamp(w / 2 px, max(1/8, 2 / d), 1), with w the median
+    projected strand width and d how many strands deep the hair lies on
+    screen (`lod_overlap` in the stats): on the 25k-strand head (about 13
+    deep at every resolution) halving the resolution halves w and so the
+    fraction, away from the bounds; at 80x45 the depth bound decides; the
+    same head with 2000 strands lies about 1 deep and is drawn whole."""
+    s = _head(25000, (1280, 720))
+    _, big = hs.render(s, quality="fast", lod="auto", return_stats=True)
+    _, small = hs.render(s, 640, 360, quality="fast", lod="auto", return_stats=True)
+    assert 10 < small["lod_overlap"] < 16 and 10 < big["lod_overlap"] < 16, (small, big)
+    assert 2 / small["lod_overlap"] < small["lod_fraction"] < big["lod_fraction"] < 1.0
     assert big["lod_fraction"] / small["lod_fraction"] == pytest.approx(2.0, rel=1e-3)
-    _, tiny = hs.render(s, 80, 45, lod="auto", return_stats=True)
-    assert tiny["lod_fraction"] == pytest.approx(0.125)
+    _, tiny = hs.render(s, 80, 45, quality="fast", lod="auto", return_stats=True)
+    assert tiny["lod_fraction"] == pytest.approx(max(0.125, 2 / tiny["lod_overlap"]), rel=1e-6)
+    assert tiny["lod_fraction"] > 0.125
+    _, sparse = hs.render(_head(2000, (1280, 720)), quality="fast", lod="auto", return_stats=True)
+    assert sparse["lod_overlap"] < 2 and sparse["lod_fraction"] == 1.0, sparse
+    _, fixed = hs.render(s, 80, 45, quality="fast", lod=0.5, return_stats=True)
+    assert fixed["lod_overlap"] is None
 
 
 def test_06_shadow_maps_are_drawn_from_every_strand():

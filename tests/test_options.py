@@ -162,10 +162,11 @@ def test_06_old_flat_keys_translate_with_a_warning():
     with pytest.warns(DeprecationWarning, match=r"render.samples is deprecated: write render.transparency.coverage"
                                                 r".samples"):
         a = hs.Scene.from_dict(old)
-    # a section in the old spelling renders as it did: quality 'fast' for what it leaves out, shaded per pixel
+    # a section in the old spelling renders as it did: quality 'fast' for what it leaves out, shaded per pixel,
+    # every strand drawn
     new = _scene_dict(quality="fast", transparency={"coverage": {"samples": 4}},
                       shadows={"opacity": {"map_size": 256}},
-                      multiple_scattering={"dual": {"backscatter": "two_stream"}}, shading="pixel")
+                      multiple_scattering={"dual": {"backscatter": "two_stream"}}, shading="pixel", lod=1.0)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         b = hs.Scene.from_dict(new)
@@ -176,7 +177,7 @@ def test_06_old_flat_keys_translate_with_a_warning():
     with pytest.warns(DeprecationWarning, match="read as it rendered before"):
         c = hs.Scene.from_dict(_scene_dict("karis", layers=4))
     assert c.render == {"quality": "fast", "transparency": {"mlab": {"layers": 4}}, "shadows": "exponential",
-                        "shading": "pixel"}
+                        "shading": "pixel", "lod": 1.0}
     assert c.options()["multiple_scattering"] == "karis" and c.options()["shadow_model"] == "exponential"
     assert c.options()["shading"] == "pixel"
     # ChiangHair: no multiple scattering, and under an environment its 32 directions (fast now sets dual
@@ -190,7 +191,7 @@ def test_06_old_flat_keys_translate_with_a_warning():
         if environment:
             assert o["environment_directions"] == 32
         spelt = hs.Scene.from_dict(_scene_dict("chiang", environment, quality="fast", transparency={"mlab": {"layers": 4}},
-                                               shadows="exponential", shading="pixel", multiple_scattering="none",
+                                               shadows="exponential", shading="pixel", multiple_scattering="none", lod=1.0,
                                                **({"environment_directions": 32} if environment else {})))
         np.testing.assert_array_equal(hs.render(ch, progress=False), hs.render(spelt, progress=False))
     # KarisHair under an environment with the volume: the environment is shaded as lights, at 32 directions

@@ -258,8 +258,9 @@ class RenderSettings(TypedDict, total=False):
         "shadow, the near field), the environment and multiple scattering per vertex and interpolated; "
         "vertex: everything per vertex")]
     lod: Annotated[Union[float, Literal["auto"]], Native("lod"), Doc(
-        "the fraction of the strands drawn, each wider by its inverse, or 'auto' (from their width on screen; "
-        "frame against error: docs/lod_tradeoff.md)")]
+        "the fraction of the strands drawn, each wider by its inverse, or 'auto': from their width and depth on "
+        "screen, thinning only hair whose strands are under 2 px wide and keeping the drawn strands 2 deep "
+        "(frame against error: docs/lod_tradeoff.md)")]
     guides: Annotated[Union[float, Sequence[int]], Native("guides"), _GUIDES, Doc(
         "guide-strand lighting: the fraction of the strands shaded at their vertices (the guides), or the guide "
         "strands' indices; every other strand takes its vertices' values from its 3 nearest guides at the same "
@@ -387,6 +388,7 @@ PRESETS: Dict[str, Dict[str, Any]] = {
         "multiple_scattering": {"karis": "karis", "chiang": "dual", "deon": "none"},
         "shading": "vertex",
         "environment_directions": 8,
+        "lod": "auto",
     },
     # the best error per second: 16 coverage samples (32 for ChiangHair, below), traced shadows (decided at the strand
     # vertices where a segment's two ends agree: the demo head 1.2x faster at 1280x720, relMSE
@@ -491,7 +493,7 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_sec
     ``render``), a section in the old spelling also keeps the old defaults
     of what it leaves out: quality 'fast' (MLAB, the model's own multiple
     scattering: none for ChiangHair, whose ``model`` the caller gives),
-    shadows 'exponential', shading 'pixel' and, where the scene has an
+    shadows 'exponential', shading 'pixel', every strand drawn (``lod`` 1) and, where the scene has an
     ``environment`` shaded as lights, the renderer's 32 environment
     directions, so that it renders as it did.
     The speed-up switches are refused."""
@@ -513,8 +515,9 @@ def translate_flat(settings: Mapping[str, Any], where: str = "render", whole_sec
         out["quality"] = "fast"
         if "shadows" not in out and "shadow_model" not in settings:
             out["shadows"] = "exponential"
-        # the old default of what 'fast' now sets besides
+        # the old defaults of what 'fast' now sets besides
         out.setdefault("shading", "pixel")
+        out.setdefault("lod", 1.0)
     if out.get("multiple_scattering") == "auto":
         warnings.warn("render.multiple_scattering 'auto' is deprecated: leave it out (the quality preset "
                       "decides)", DeprecationWarning, stacklevel=3)

@@ -654,6 +654,7 @@ pub fn render<'py>(
     d.set_item("volume_transmittance", stats.volume_transmittance)?;
     d.set_item("shadow_maps_skipped", stats.shadow_maps_skipped)?;
     d.set_item("lod_fraction", stats.lod_fraction as f64)?;
+    d.set_item("lod_overlap", stats.lod_overlap.map(|x| x as f64))?;
     d.set_item("strands_drawn", stats.strands_drawn)?;
     d.set_item("guide_strands", stats.guide_strands)?;
     d.set_item("guides_ms", stats.guides_ms)?;

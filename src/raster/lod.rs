@@ -27,14 +27,23 @@
 //! towards the camera, backlit heads rendered twice as bright at 1/8 as
 //! with every strand drawn.
 //!
-//! `auto` picks `f` from the strands' width on screen: hair whose strands
-//! are thinner than [`AUTO_WIDTH`] pixels is drawn with fewer, wider
-//! strands, `f = clamp(w / AUTO_WIDTH, AUTO_MIN, 1)` with `w` the median
-//! projected strand width in pixels. Strands thinner than a pixel are what
-//! the rasterizer pays for most: each covers at least a pixel-wide
-//! footprint, so a strand `w` pixels wide costs about `w + 1` pixels per
-//! unit length, and `f` strands of width `w/f` cost `w + f`. Time against
-//! error over `f`: `hairshade bench --render` (section `lod`).
+//! `auto` picks `f` from the strands' width and depth on screen: hair whose
+//! strands are thinner than [`AUTO_WIDTH`] pixels is drawn with fewer,
+//! wider strands, `f = clamp(w / AUTO_WIDTH, max(AUTO_MIN, AUTO_DEPTH / d),
+//! 1)` with `w` the median projected strand width in pixels and `d` how
+//! many strands deep the hair lies on screen on average ([`overlap`]).
+//! Strands thinner than a pixel are what the rasterizer pays for most:
+//! each covers at least a pixel-wide footprint, so a strand `w` pixels
+//! wide costs about `w + 1` pixels per unit length, and `f` strands of
+//! width `w/f` cost `w + f`. The depth bound keeps the drawn strands
+//! [`AUTO_DEPTH`] deep: the error of a fraction grows as the drawn strands
+//! stop overlapping (`docs/lod_tradeoff.md`: at 320×180 the dense heads,
+//! about 5 deep, at `f` 1/8 rendered with 1.5-3.7 times the relMSE of every
+//! strand drawn, at 0.4 with 1.1-1.8 times), and hair whose strands lie
+//! apart (a few strands, a bundle seen from the side: much less than one
+//! deep) is drawn whole, as thinning it would leave gaps where strands
+//! were. Time against error over `f`: `hairshade bench --render` (section
+//! `lod`) and `scripts/lod_tradeoff.py`.
 
 use super::scene::{Camera, Strands};
 use super::setup::{world_segments, WorldSegment};
@@ -46,6 +55,10 @@ use std::sync::OnceLock;
 pub const AUTO_WIDTH: f32 = 2.0;
 /// Smallest fraction `auto` picks.
 pub const AUTO_MIN: f32 = 0.125;
+/// How many strands deep `auto` keeps the drawn strands on screen, on
+/// average ([`overlap`]): it draws no fewer than this over the strands'
+/// depth, and every strand of hair less deep than this.
+pub const AUTO_DEPTH: f32 = 2.0;
 
 /// How many strands a render draws.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -75,13 +88,159 @@ pub fn rank(s: usize) -> f32 {
 
 /// The fraction `lod` stands for with this camera.
 pub fn fraction(lod: Lod, strands: &Strands, camera: &Camera) -> f32 {
+    choose(lod, strands, camera).0
+}
+
+/// The fraction `lod` stands for with this camera, and under `auto` the
+/// strands' overlap on screen it read ([`overlap`]).
+pub fn choose(lod: Lod, strands: &Strands, camera: &Camera) -> (f32, Option<f32>) {
     match lod {
-        Lod::Fraction(f) => f.clamp(f32::MIN_POSITIVE, 1.0),
-        Lod::Auto => match median_width_px(strands, camera) {
-            Some(w) => (w / AUTO_WIDTH).clamp(AUTO_MIN, 1.0),
-            None => 1.0,
-        },
+        Lod::Fraction(f) => (f.clamp(f32::MIN_POSITIVE, 1.0), None),
+        Lod::Auto => {
+            let d = overlap(strands, camera);
+            let f = match (median_width_px(strands, camera), d) {
+                (Some(w), Some(d)) => auto_fraction(w, d),
+                _ => 1.0,
+            };
+            (f, d)
+        }
     }
+}
+
+/// `auto`'s fraction for strands `w` pixels wide on screen lying `d` deep
+/// ([`overlap`]): `clamp(w / AUTO_WIDTH, max(AUTO_MIN, AUTO_DEPTH / d), 1)`.
+pub fn auto_fraction(w: f32, d: f32) -> f32 {
+    let lo = if d > 0.0 {
+        (AUTO_DEPTH / d).max(AUTO_MIN)
+    } else {
+        1.0
+    };
+    (w / AUTO_WIDTH).clamp(lo.min(1.0), 1.0)
+}
+
+/// Side, in pixels, of the cells [`overlap`] counts the hair's footprint in.
+const OVERLAP_CELL: u32 = 8;
+/// Strands per task of [`overlap`].
+const OVERLAP_CHUNK: usize = 1024;
+/// How many strands [`overlap`] projects first, evenly spaced.
+const OVERLAP_SAMPLE: usize = 4096;
+/// The depth on screen from which evenly spaced strands fill the whole's
+/// footprint: a cell of 8×8 pixels then holds 32 square pixels of them, some
+/// 4-32 stretches of strand a pixel to an eighth wide, so that one with
+/// none is rare (under e^-4 where each lies independently).
+const OVERLAP_SATURATED: f64 = 0.5;
+
+/// How many strands lie over a pixel of the hair's footprint on screen, on
+/// average: the strands' projected area (each segment in front of the
+/// camera with an end in the image, its length on screen times its mean
+/// width, in pixels) over the footprint's area, counted as the
+/// [`OVERLAP_CELL`]-pixel cells of the image holding such a segment's ends
+/// or points along it a cell apart.
+/// Dense hair lies several strands deep (the dense test heads about 5,
+/// the 25k-strand demo head about 13, nearly the same at every
+/// resolution); strands apart from each other lie much less than one deep
+/// (a strand a pixel wide crossing a cell covers an eighth of it). Of more
+/// than [`OVERLAP_SAMPLE`] strands, evenly spaced ones are projected first,
+/// and their depth scaled by the whole's count over theirs where they lie
+/// deep enough to fill the whole's footprint; otherwise every strand is
+/// projected. None without such a segment.
+pub fn overlap(strands: &Strands, camera: &Camera) -> Option<f32> {
+    let n = strands.strand_count();
+    let step = n.div_ceil(OVERLAP_SAMPLE).max(1);
+    if step > 1 {
+        // every step-th strand: its depth is about 1/step of the whole's,
+        // and where it still lies OVERLAP_SATURATED deep it fills the
+        // whole's footprint (below)
+        let (area, footprint) = projected(strands, camera, step)?;
+        if area >= OVERLAP_SATURATED * footprint {
+            return Some((step as f64 * area / footprint) as f32);
+        }
+    }
+    let (area, footprint) = projected(strands, camera, 1)?;
+    Some((area / footprint) as f32)
+}
+
+/// The projected area, in pixels, of every `step`-th strand (from the
+/// first), and the area of the cells holding it ([`overlap`]); None
+/// without a segment in the image.
+fn projected(strands: &Strands, camera: &Camera, step: usize) -> Option<(f64, f64)> {
+    let (w, h) = (camera.width.max(1), camera.height.max(1));
+    let forward = (camera.target - camera.position).normalize_or_zero();
+    let right = forward.cross(camera.up).normalize_or_zero();
+    let up = right.cross(forward);
+    let tan_half = (0.5 * camera.fov_y.to_radians()).tan();
+    if !(tan_half > 0.0) || forward == glam::Vec3::ZERO || right == glam::Vec3::ZERO {
+        return None;
+    }
+    // pixels per unit of (lateral offset / depth)
+    let scale = 0.5 * h as f32 / tan_half;
+    let (cw, ch) = (w.div_ceil(OVERLAP_CELL), h.div_ceil(OVERLAP_CELL));
+    let words = ((cw * ch) as usize).div_ceil(64);
+    let (wf, hf) = (w as f32, h as f32);
+    let inside = |x: f32, y: f32| x >= 0.0 && y >= 0.0 && x < wf && y < hf;
+    let cell = 1.0 / OVERLAP_CELL as f32;
+    // One chunk of strands: its projected area and the cells it crosses
+    // (fixed chunks, summed in order: the same result at every thread count).
+    let chunk = |first: usize| -> (f64, Vec<u64>) {
+        let mut cells = vec![0u64; words];
+        let mut mark = |x: f32, y: f32| {
+            if inside(x, y) {
+                let c = (y * cell) as usize * cw as usize + (x * cell) as usize;
+                cells[c / 64] |= 1 << (c % 64);
+            }
+        };
+        let mut area = 0.0f64;
+        for s in (first..(first + OVERLAP_CHUNK * step).min(strands.strand_count())).step_by(step) {
+            let r = strands.offsets[s] as usize..strands.offsets[s + 1] as usize;
+            // the previous vertex: x, y and width in pixels (z > 0)
+            let mut prev: Option<(f32, f32, f32)> = None;
+            for i in r {
+                let d = strands.points[i] - camera.position;
+                let z = d.dot(forward);
+                if !(z > 0.0) {
+                    prev = None;
+                    continue;
+                }
+                let k = scale / z;
+                let (x, y) = (0.5 * wf + k * d.dot(right), 0.5 * hf - k * d.dot(up));
+                let wp = 2.0 * strands.radii[i] * k;
+                if let Some((px, py, pw)) = prev {
+                    if inside(x, y) || inside(px, py) {
+                        let len = ((x - px) * (x - px) + (y - py) * (y - py)).sqrt();
+                        area += (len * 0.5 * (wp + pw)) as f64;
+                        // the cells along the segment: its ends, and points
+                        // a cell apart between them
+                        mark(x, y);
+                        let steps = (len * cell).min(4096.0) as u32;
+                        for j in 0..steps {
+                            let t = (j as f32 + 0.5) / steps as f32;
+                            mark(px + (x - px) * t, py + (y - py) * t);
+                        }
+                    }
+                } else {
+                    mark(x, y);
+                }
+                prev = Some((x, y, wp));
+            }
+        }
+        (area, cells)
+    };
+    use rayon::prelude::*;
+    let parts: Vec<(f64, Vec<u64>)> = (0..strands.strand_count())
+        .into_par_iter()
+        .step_by(OVERLAP_CHUNK * step)
+        .map(chunk)
+        .collect();
+    let mut cells = vec![0u64; words];
+    let mut area = 0.0f64;
+    for (a, c) in &parts {
+        area += a;
+        for (x, y) in cells.iter_mut().zip(c) {
+            *x |= y;
+        }
+    }
+    let footprint = cells.iter().map(|c| c.count_ones()).sum::<u32>() as f64 * (OVERLAP_CELL * OVERLAP_CELL) as f64;
+    (footprint > 0.0 && area.is_finite()).then_some((area, footprint))
 }
 
 /// Median over (up to 4096 evenly spaced) strand vertices in front of the
@@ -327,8 +486,9 @@ mod tests {
         let want = 0.002 / (2.0 * 2.0 * (20f32).to_radians().tan() / 720.0);
         let got = median_width_px(&s, &camera).unwrap();
         assert!((got - want).abs() < 1e-4 * want, "{got} vs {want}");
-        let f = fraction(Lod::Auto, &s, &camera);
-        assert!((f - (want / AUTO_WIDTH).clamp(AUTO_MIN, 1.0)).abs() < 1e-6);
+        // a lone strand lies far less than AUTO_DEPTH deep: drawn whole
+        assert!(overlap(&s, &camera).unwrap() < 0.1);
+        assert_eq!(fraction(Lod::Auto, &s, &camera), 1.0);
     }
 
     /// 4. Shadow casters under a level of detail: every strand's segments,
@@ -487,5 +647,112 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// 6. `auto`'s fraction: the width bound, the depth bound and the clamps.
+    #[test]
+    fn t06_auto_fraction_bounds() {
+        // thin and deep: the width decides, down to AUTO_MIN
+        assert_eq!(auto_fraction(0.5, 100.0), 0.25);
+        assert_eq!(auto_fraction(0.01, 100.0), AUTO_MIN);
+        // thin and 5 deep: no fewer than AUTO_DEPTH / 5
+        assert_eq!(auto_fraction(0.2, 5.0), AUTO_DEPTH / 5.0);
+        // wide, or shallower than AUTO_DEPTH: every strand
+        assert_eq!(auto_fraction(3.0, 100.0), 1.0);
+        assert_eq!(auto_fraction(0.2, 1.5), 1.0);
+        assert_eq!(auto_fraction(0.2, 0.0), 1.0);
+    }
+
+    /// 7. The overlap of a sheet of parallel strands facing the camera,
+    ///    `n` strands side by side over a band `b` pixels wide, each `w`
+    ///    pixels wide: `n w / b` strands deep, less the cells that the
+    ///    band's edges may add.
+    #[test]
+    fn t07_overlap_of_a_sheet() {
+        let camera = Camera {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+            width: 1280,
+            height: 720,
+        };
+        let px = 2.0 * 2.0 * (20f32).to_radians().tan() / 720.0;
+        // a band 800 px wide (x) and 400 px tall (y), aligned to cells
+        let (n, r) = (4000usize, 0.5 * 0.8 * px);
+        let mut s = Strands {
+            points: Vec::new(),
+            radii: Vec::new(),
+            offsets: vec![0],
+        };
+        for k in 0..n {
+            let x = (-400.0 + 800.0 * (k as f32 + 0.5) / n as f32) * px;
+            for j in 0..=8 {
+                s.points.push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
+                s.radii.push(r);
+            }
+            s.offsets.push(s.points.len() as u32);
+        }
+        let want = n as f32 * 0.8 / 800.0;
+        let got = overlap(&s, &camera).unwrap();
+        // the band's edges lie on cell boundaries: each may add a row or
+        // column of cells (a vertex on the boundary, or rounding past it)
+        let lo = want * (400.0 * 800.0) / (416.0 * 816.0);
+        assert!(got > 0.999 * lo && got < 1.001 * want, "{got} vs {want}");
+        // 4 deep, 0.8 px wide: f = max(0.4, 2 / 4) = 0.5
+        assert!((fraction(Lod::Auto, &s, &camera) - 0.5).abs() < 0.02);
+    }
+
+    /// 8. Of many strands, the evenly spaced ones stand for the whole where
+    ///    they fill its footprint (a dense sheet: within 2% of every strand
+    ///    projected), and every strand is projected where they do not
+    ///    (short strands scattered apart: the exact depth).
+    #[test]
+    fn t08_overlap_from_evenly_spaced_strands() {
+        let camera = Camera {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+            width: 1280,
+            height: 720,
+        };
+        let px = 2.0 * 2.0 * (20f32).to_radians().tan() / 720.0;
+        let exact = |s: &Strands| {
+            let (a, f) = projected(s, &camera, 1).unwrap();
+            (a / f) as f32
+        };
+        let mut sheet = Strands {
+            points: Vec::new(),
+            radii: Vec::new(),
+            offsets: vec![0],
+        };
+        let n = 20000;
+        for k in 0..n {
+            let x = (-400.0 + 800.0 * (k as f32 + 0.5) / n as f32) * px;
+            for j in 0..=8 {
+                sheet.points.push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
+                sheet.radii.push(0.25 * px);
+            }
+            sheet.offsets.push(sheet.points.len() as u32);
+        }
+        let (got, want) = (overlap(&sheet, &camera).unwrap(), exact(&sheet));
+        assert!((got - want).abs() < 0.02 * want, "{got} vs {want}");
+        let mut scattered = Strands {
+            points: Vec::new(),
+            radii: Vec::new(),
+            offsets: vec![0],
+        };
+        for k in 0..n {
+            let (u, v) = (rank(2 * k) - 0.5, rank(2 * k + 1) - 0.5);
+            let p = Vec3::new(1200.0 * u * px, 700.0 * v * px, 0.0);
+            scattered.points.push(p);
+            scattered.points.push(p + Vec3::new(2.0 * px, 0.0, 0.0));
+            scattered.radii.extend([0.25 * px; 2]);
+            scattered.offsets.push(scattered.points.len() as u32);
+        }
+        let d = overlap(&scattered, &camera).unwrap();
+        assert_eq!(d, exact(&scattered));
+        assert!(d < 0.1, "{d}");
     }
 }

@@ -113,6 +113,9 @@ pub struct RenderStats {
     /// The fraction of the strands drawn ([`lod`]) and their number.
     pub lod_fraction: f32,
     pub strands_drawn: usize,
+    /// The strands' overlap on screen that `lod: auto` read
+    /// ([`lod::overlap`]); None under a fixed fraction.
+    pub lod_overlap: Option<f32>,
     /// Guide-strand lighting ([`guides`]): the guide strands (0 when off),
     /// and the wall time of choosing them and the taps (about 0 when the
     /// last render's are reused), in milliseconds.
@@ -182,7 +185,7 @@ pub fn render_with_progress(
     let mut stats = RenderStats::default();
 
     // 0. Strand level of detail.
-    stats.lod_fraction = lod::fraction(opts.lod, &scene.strands, &scene.camera);
+    (stats.lod_fraction, stats.lod_overlap) = lod::choose(opts.lod, &scene.strands, &scene.camera);
     // the scene with every strand, before the level of detail
     let whole = scene;
     let (reduced, guide_settings, kept, widen) =
