@@ -198,7 +198,9 @@ def main() -> int:
     presets, speedups = measure(heads, a.repeats)
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    command = "python scripts/speed_table.py" + (f" --repeats {a.repeats}" if a.repeats != 2 else "")
+    command = ("python scripts/speed_table.py" + (f" --out {a.out}" if a.out != "docs" else "")
+               + (f" --repeats {a.repeats}" if a.repeats != 2 else "")
+               + (f" --heads {','.join(heads)}" if heads != tuple(HEADS) else ""))
     (out / "speed.md").write_text(markdown(presets, speedups, command))
     keys = ["head", "model", "size", "quality", "frame_s", "per_fast", "rel_mse", "ratio_r", "ratio_g", "ratio_b",
             "truth"]

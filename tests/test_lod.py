@@ -4,7 +4,10 @@
 from __future__ import annotations
 
 import json
+import os
 import pathlib
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -69,7 +72,8 @@ def test_04_auto_follows_the_strand_width_and_depth_on_screen():
     screen (`lod_overlap` in the stats): on the 25k-strand head (about 13
     deep at every resolution) halving the resolution halves w and so the
     fraction, away from the bounds; at 80x45 the depth bound decides; the
-    same head with 2000 strands lies about 1 deep and is drawn whole."""
+    same head with 2000 strands lies about 1 deep and is drawn whole (by
+    the fast preset, whose lod is 'auto')."""
     s = _head(25000, (1280, 720))
     _, big = hs.render(s, quality="fast", lod="auto", return_stats=True)
     _, small = hs.render(s, 640, 360, quality="fast", lod="auto", return_stats=True)
@@ -79,7 +83,8 @@ def test_04_auto_follows_the_strand_width_and_depth_on_screen():
     _, tiny = hs.render(s, 80, 45, quality="fast", lod="auto", return_stats=True)
     assert tiny["lod_fraction"] == pytest.approx(max(0.125, 2 / tiny["lod_overlap"]), rel=1e-6)
     assert tiny["lod_fraction"] > 0.125
-    _, sparse = hs.render(_head(2000, (1280, 720)), quality="fast", lod="auto", return_stats=True)
+    # (the fast preset's own lod is 'auto')
+    _, sparse = hs.render(_head(2000, (1280, 720)), quality="fast", return_stats=True)
     assert sparse["lod_overlap"] < 2 and sparse["lod_fraction"] == 1.0, sparse
     _, fixed = hs.render(s, 80, 45, quality="fast", lod=0.5, return_stats=True)
     assert fixed["lod_overlap"] is None
@@ -165,3 +170,24 @@ def test_05_hair_culling_skips_hidden_hair_and_stays_close_to_the_exact_composit
     assert e1 < e0
     with pytest.raises(ValueError, match="cull_transmittance"):
         hs.render(s, hair_cull_transmittance=1.5)
+
+
+def test_08_auto_is_the_same_at_every_thread_count(tmp_path):
+    """`auto` projects the strands in fixed chunks, in parallel: the depth it
+    reads, the fraction and the image are the same on one thread as on all
+    (the 25k-strand head, whose evenly spaced strands are projected first)."""
+    s = _head(25000, (320, 180))
+    img, st = hs.render(s, quality="fast", return_stats=True)
+    assert st["lod_overlap"] is not None and st["lod_fraction"] < 1
+    code = (
+        "import json, numpy as np, hairshade as hs;"
+        f"d=json.load(open({str(EXAMPLES / 'strand_head.json')!r}));"
+        "d['hair']['generate']['strands']=25000; d['camera']['resolution']=[320, 180];"
+        f"img, st = hs.render(hs.Scene.from_dict(d, base_dir={str(EXAMPLES)!r}), quality='fast', return_stats=True);"
+        f"np.save({str(tmp_path / 'one.npy')!r}, img);"
+        f"json.dump([st['lod_overlap'], st['lod_fraction']], open({str(tmp_path / 'one.json')!r}, 'w'))"
+    )
+    env = dict(os.environ, RAYON_NUM_THREADS="1")
+    subprocess.run([sys.executable, "-c", code], check=True, env=env)
+    assert json.loads((tmp_path / "one.json").read_text()) == [st["lod_overlap"], st["lod_fraction"]]
+    np.testing.assert_array_equal(np.load(tmp_path / "one.npy"), img)

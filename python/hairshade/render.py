@@ -87,7 +87,9 @@ def render(
     renderer's resolved options (``transparency``, ``samples``,
     ``shading``, ...) and what the frame did: counts (``segments``,
     ``segments_visible``, ``fragments``, ``vertices_shaded``,
-    ``strands_drawn``, the ``culled_*`` counts, ``non_finite_pixels``),
+    ``strands_drawn``, the ``culled_*`` counts, ``non_finite_pixels``), the
+    level of detail (``lod_fraction``; under ``lod: "auto"``, ``lod_overlap``:
+    how many strands deep the hair lay on screen, from which it was chosen),
     what it reused from the frame before (``shadow_maps_reused``,
     ``lighting_reused``, ``volume_reused``), ``memory_estimate`` (bytes),
     and wall times in milliseconds: ``shadow_ms``, ``setup_ms`` (which
