@@ -67,21 +67,21 @@ def test_03_fewer_wider_strands_keep_the_hair_brightness():
 
 
 def test_04_auto_follows_the_strand_width_and_depth_on_screen():
-    """auto = clamp(w / 2 px, max(1/8, 2 / d), 1), with w the median
+    """auto = clamp(w / 2 px, max(1/8, 4 / d), 1), with w the median
     projected strand width and d how many strands deep the hair lies on
     screen (`lod_overlap` in the stats): on the 25k-strand head (about 13
-    deep at every resolution) halving the resolution halves w and so the
-    fraction, away from the bounds; at 80x45 the depth bound decides; the
-    same head with 2000 strands lies about 1 deep and is drawn whole (by
-    the fast preset, whose lod is 'auto')."""
+    deep at every resolution) doubling the resolution from 1280x720 doubles
+    w and so the fraction, away from the bounds; at 80x45 the depth bound
+    decides; the same head with 2000 strands lies about 1 deep and is drawn
+    whole (by the fast preset, whose lod is 'auto')."""
     s = _head(25000, (1280, 720))
-    _, big = hs.render(s, quality="fast", lod="auto", return_stats=True)
-    _, small = hs.render(s, 640, 360, quality="fast", lod="auto", return_stats=True)
+    _, small = hs.render(s, quality="fast", lod="auto", return_stats=True)
+    _, big = hs.render(s, 2560, 1440, quality="fast", lod="auto", return_stats=True)
     assert 10 < small["lod_overlap"] < 16 and 10 < big["lod_overlap"] < 16, (small, big)
-    assert 2 / small["lod_overlap"] < small["lod_fraction"] < big["lod_fraction"] < 1.0
+    assert 4 / small["lod_overlap"] < small["lod_fraction"] < big["lod_fraction"] < 1.0
     assert big["lod_fraction"] / small["lod_fraction"] == pytest.approx(2.0, rel=1e-3)
     _, tiny = hs.render(s, 80, 45, quality="fast", lod="auto", return_stats=True)
-    assert tiny["lod_fraction"] == pytest.approx(max(0.125, 2 / tiny["lod_overlap"]), rel=1e-6)
+    assert tiny["lod_fraction"] == pytest.approx(max(0.125, 4 / tiny["lod_overlap"]), rel=1e-6)
     assert tiny["lod_fraction"] > 0.125
     # (the fast preset's own lod is 'auto')
     _, sparse = hs.render(_head(2000, (1280, 720)), quality="fast", return_stats=True)

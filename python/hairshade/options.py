@@ -259,7 +259,7 @@ class RenderSettings(TypedDict, total=False):
         "vertex: everything per vertex")]
     lod: Annotated[Union[float, Literal["auto"]], Native("lod"), Doc(
         "the fraction of the strands drawn, each wider by its inverse, or 'auto': from their width and depth on "
-        "screen, thinning only hair whose strands are under 2 px wide and keeping the drawn strands 2 deep "
+        "screen, thinning only hair whose strands are under 2 px wide and keeping the drawn strands 4 deep "
         "(frame against error: docs/lod_tradeoff.md)")]
     guides: Annotated[Union[float, Sequence[int]], Native("guides"), _GUIDES, Doc(
         "guide-strand lighting: the fraction of the strands shaded at their vertices (the guides), or the guide "
@@ -373,11 +373,11 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     # interactive: MLAB, deep opacity maps, the model's own multiple scattering, strands
     # shaded per vertex (docs/speed.md: 2x faster at 1280x720, relMSE 3e-4 from per pixel),
     # fewer, wider strands where they are under 2 px wide and lie deep (`lod: "auto"`,
-    # docs/lod_tradeoff.md: the demo head at 1280x720 0.37x the frame of every strand drawn
-    # at 1.43x its relMSE against the truth; the dense heads, median, 0.47x at 1.48x (320x180)
-    # and 0.48x at 1.99x (1280x720); the held-out heads 0.33x at 1.97x and 0.67x at 1.38x,
-    # at most 4.25x: the error it adds lies at the sparse fringe of tips, against a bright
-    # environment most). A pixel's hair
+    # docs/lod_tradeoff.md: the demo head at 1280x720 0.36x the frame of every strand drawn
+    # at 1.43x its relMSE against the truth; medians over the dense heads 0.86x at 1.07x
+    # (320x180) and 0.75x at 1.36x (1280x720), over the held-out heads 0.60x at 1.37x and
+    # 0.68x at 1.38x, at most 4.22x: the error it adds lies at the sparse fringe of tips,
+    # against a bright environment most). A pixel's hair
     # behind 2% transmittance is skipped, not behind 0.1% (at 1280x720 the demo head's frame
     # 1.14x faster, the dense heads' 1.03-1.12x; relMSE at most 2e-5 against 0.1%, a
     # channel's mean at most 0.33% darker: docs/speed.md). ChiangHair takes dual scattering

@@ -39,10 +39,12 @@
 //! [`AUTO_DEPTH`] deep: the error of a fraction grows as the drawn strands
 //! stop overlapping (`docs/lod_tradeoff.md`: at 320×180 the dense heads,
 //! about 5 deep, at `f` 1/8 rendered with 1.5-3.7 times the relMSE of every
-//! strand drawn, at 0.4 with 1.1-1.8 times), and hair whose strands lie
-//! apart (a few strands, a bundle seen from the side: much less than one
-//! deep) is drawn whole, as thinning it would leave gaps where strands
-//! were. Time against error over `f`: `hairshade bench --render` (section
+//! strand drawn, at 0.4 with 1.1-1.8 times, at 0.7 with 1.0-1.2 times; the
+//! 25k-strand demo head, about 13 deep, drawn 2 deep at 640×360 shows wide
+//! bars and a blotchy crown where drawn 4 deep it does much less), and hair
+//! whose strands lie apart (a few strands, a bundle seen from the side:
+//! much less than one deep) is drawn whole, as thinning it would leave gaps
+//! where strands were. Time against error over `f`: `hairshade bench --render` (section
 //! `lod`) and `scripts/lod_tradeoff.py`.
 
 use super::scene::{Camera, Strands};
@@ -58,7 +60,7 @@ pub const AUTO_MIN: f32 = 0.125;
 /// How many strands deep `auto` keeps the drawn strands on screen, on
 /// average ([`overlap`]): it draws no fewer than this over the strands'
 /// depth, and every strand of hair less deep than this.
-pub const AUTO_DEPTH: f32 = 2.0;
+pub const AUTO_DEPTH: f32 = 4.0;
 
 /// How many strands a render draws.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -679,7 +681,7 @@ mod tests {
         };
         let px = 2.0 * 2.0 * (20f32).to_radians().tan() / 720.0;
         // a band 800 px wide (x) and 400 px tall (y), aligned to cells
-        let (n, r) = (4000usize, 0.5 * 0.8 * px);
+        let (n, r) = (8000usize, 0.5 * 0.8 * px);
         let mut s = Strands {
             points: Vec::new(),
             radii: Vec::new(),
@@ -699,7 +701,7 @@ mod tests {
         // column of cells (a vertex on the boundary, or rounding past it)
         let lo = want * (400.0 * 800.0) / (416.0 * 816.0);
         assert!(got > 0.999 * lo && got < 1.001 * want, "{got} vs {want}");
-        // 4 deep, 0.8 px wide: f = max(0.4, 2 / 4) = 0.5
+        // 8 deep, 0.8 px wide: f = max(0.4, 4 / 8) = 0.5
         assert!((fraction(Lod::Auto, &s, &camera) - 0.5).abs() < 0.02);
     }
 
