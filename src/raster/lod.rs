@@ -44,8 +44,8 @@
 //! bars and a blotchy crown where drawn 4 deep it does much less), and hair
 //! whose strands lie apart (a few strands, a bundle seen from the side:
 //! much less than one deep) is drawn whole, as thinning it would leave gaps
-//! where strands were. Time against error over `f`: `hairshade bench --render` (section
-//! `lod`) and `scripts/lod_tradeoff.py`.
+//! where strands were. Time against error over `f`: `hairshade bench
+//! --render` (section `lod`) and `scripts/lod_tradeoff.py`.
 
 use super::scene::{Camera, Strands};
 use super::setup::{world_segments, WorldSegment};
@@ -241,7 +241,8 @@ fn projected(strands: &Strands, camera: &Camera, step: usize) -> Option<(f64, f6
             *x |= y;
         }
     }
-    let footprint = cells.iter().map(|c| c.count_ones()).sum::<u32>() as f64 * (OVERLAP_CELL * OVERLAP_CELL) as f64;
+    let footprint = cells.iter().map(|c| c.count_ones()).sum::<u32>() as f64
+        * (OVERLAP_CELL * OVERLAP_CELL) as f64;
     (footprint > 0.0 && area.is_finite()).then_some((area, footprint))
 }
 
@@ -690,7 +691,8 @@ mod tests {
         for k in 0..n {
             let x = (-400.0 + 800.0 * (k as f32 + 0.5) / n as f32) * px;
             for j in 0..=8 {
-                s.points.push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
+                s.points
+                    .push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
                 s.radii.push(r);
             }
             s.offsets.push(s.points.len() as u32);
@@ -733,7 +735,9 @@ mod tests {
         for k in 0..n {
             let x = (-400.0 + 800.0 * (k as f32 + 0.5) / n as f32) * px;
             for j in 0..=8 {
-                sheet.points.push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
+                sheet
+                    .points
+                    .push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
                 sheet.radii.push(0.25 * px);
             }
             sheet.offsets.push(sheet.points.len() as u32);
