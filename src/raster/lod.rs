@@ -88,11 +88,6 @@ pub fn rank(s: usize) -> f32 {
     (z >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
 
-/// The fraction `lod` stands for with this camera.
-pub fn fraction(lod: Lod, strands: &Strands, camera: &Camera) -> f32 {
-    choose(lod, strands, camera).0
-}
-
 /// The fraction `lod` stands for with this camera, and under `auto` the
 /// strands' overlap on screen it read ([`overlap`]).
 pub fn choose(lod: Lod, strands: &Strands, camera: &Camera) -> (f32, Option<f32>) {
@@ -425,6 +420,41 @@ mod tests {
         s
     }
 
+    /// A 1280×720 camera 2 units from the origin, looking down −z, and the
+    /// side of its pixel at the origin.
+    fn camera_1280() -> (Camera, f32) {
+        let camera = Camera {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+            width: 1280,
+            height: 720,
+        };
+        (camera, 2.0 * 2.0 * (20f32).to_radians().tan() / 720.0)
+    }
+
+    /// `n` parallel vertical strands of radius `r` at the origin's depth,
+    /// spread evenly over a band 800 pixels wide and 400 tall (pixel side
+    /// `px`) centred in [`camera_1280`]'s image, on cell boundaries.
+    fn sheet(n: usize, r: f32, px: f32) -> Strands {
+        let mut s = Strands {
+            points: Vec::new(),
+            radii: Vec::new(),
+            offsets: vec![0],
+        };
+        for k in 0..n {
+            let x = (-400.0 + 800.0 * (k as f32 + 0.5) / n as f32) * px;
+            for j in 0..=8 {
+                s.points
+                    .push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
+                s.radii.push(r);
+            }
+            s.offsets.push(s.points.len() as u32);
+        }
+        s
+    }
+
     /// 1. The kept subset is uniform (its share within 4 standard errors of
     ///    f at N = 20000), nested as f grows, and the total width (Σ radius
     ///    over vertices) is kept to f32 rounding (each radius is rounded
@@ -473,14 +503,7 @@ mod tests {
     ///    along the view axis is 2r / (2 z tan(fov/2) / height) pixels.
     #[test]
     fn t03_median_width_in_pixels() {
-        let camera = Camera {
-            position: Vec3::new(0.0, 0.0, 2.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov_y: 40.0,
-            width: 1280,
-            height: 720,
-        };
+        let (camera, _) = camera_1280();
         let s = Strands {
             points: vec![Vec3::ZERO, Vec3::new(0.0, 0.1, 0.0)],
             radii: vec![0.001, 0.001],
@@ -491,7 +514,7 @@ mod tests {
         assert!((got - want).abs() < 1e-4 * want, "{got} vs {want}");
         // a lone strand lies far less than AUTO_DEPTH deep: drawn whole
         assert!(overlap(&s, &camera).unwrap() < 0.1);
-        assert_eq!(fraction(Lod::Auto, &s, &camera), 1.0);
+        assert_eq!(choose(Lod::Auto, &s, &camera).0, 1.0);
     }
 
     /// 4. Shadow casters under a level of detail: every strand's segments,
@@ -672,31 +695,10 @@ mod tests {
     ///    band's edges may add.
     #[test]
     fn t07_overlap_of_a_sheet() {
-        let camera = Camera {
-            position: Vec3::new(0.0, 0.0, 2.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov_y: 40.0,
-            width: 1280,
-            height: 720,
-        };
-        let px = 2.0 * 2.0 * (20f32).to_radians().tan() / 720.0;
+        let (camera, px) = camera_1280();
         // a band 800 px wide (x) and 400 px tall (y), aligned to cells
-        let (n, r) = (8000usize, 0.5 * 0.8 * px);
-        let mut s = Strands {
-            points: Vec::new(),
-            radii: Vec::new(),
-            offsets: vec![0],
-        };
-        for k in 0..n {
-            let x = (-400.0 + 800.0 * (k as f32 + 0.5) / n as f32) * px;
-            for j in 0..=8 {
-                s.points
-                    .push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
-                s.radii.push(r);
-            }
-            s.offsets.push(s.points.len() as u32);
-        }
+        let n = 8000;
+        let s = sheet(n, 0.5 * 0.8 * px, px);
         let want = n as f32 * 0.8 / 800.0;
         let got = overlap(&s, &camera).unwrap();
         // the band's edges lie on cell boundaries: each may add a row or
@@ -704,7 +706,7 @@ mod tests {
         let lo = want * (400.0 * 800.0) / (416.0 * 816.0);
         assert!(got > 0.999 * lo && got < 1.001 * want, "{got} vs {want}");
         // 8 deep, 0.8 px wide: f = max(0.4, 4 / 8) = 0.5
-        assert!((fraction(Lod::Auto, &s, &camera) - 0.5).abs() < 0.02);
+        assert!((choose(Lod::Auto, &s, &camera).0 - 0.5).abs() < 0.02);
     }
 
     /// 8. Of many strands, the evenly spaced ones stand for the whole where
@@ -713,35 +715,13 @@ mod tests {
     ///    (short strands scattered apart: the exact depth).
     #[test]
     fn t08_overlap_from_evenly_spaced_strands() {
-        let camera = Camera {
-            position: Vec3::new(0.0, 0.0, 2.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov_y: 40.0,
-            width: 1280,
-            height: 720,
-        };
-        let px = 2.0 * 2.0 * (20f32).to_radians().tan() / 720.0;
+        let (camera, px) = camera_1280();
         let exact = |s: &Strands| {
             let (a, f) = projected(s, &camera, 1).unwrap();
             (a / f) as f32
         };
-        let mut sheet = Strands {
-            points: Vec::new(),
-            radii: Vec::new(),
-            offsets: vec![0],
-        };
         let n = 20000;
-        for k in 0..n {
-            let x = (-400.0 + 800.0 * (k as f32 + 0.5) / n as f32) * px;
-            for j in 0..=8 {
-                sheet
-                    .points
-                    .push(Vec3::new(x, (-200.0 + 50.0 * j as f32) * px, 0.0));
-                sheet.radii.push(0.25 * px);
-            }
-            sheet.offsets.push(sheet.points.len() as u32);
-        }
+        let sheet = sheet(n, 0.25 * px, px);
         let (got, want) = (overlap(&sheet, &camera).unwrap(), exact(&sheet));
         assert!((got - want).abs() < 0.02 * want, "{got} vs {want}");
         let mut scattered = Strands {
