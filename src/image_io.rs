@@ -77,7 +77,10 @@ fn check_declared(
 
 /// A zeroed buffer of `len` values, or an error naming `what` when the
 /// memory cannot be had (instead of aborting the process).
-fn try_zeroed<T: Clone + Default>(len: usize, what: &str) -> Result<Vec<T>, ImageError> {
+fn try_zeroed<T: Clone + Default + Send + Sync>(
+    len: usize,
+    what: &str,
+) -> Result<Vec<T>, ImageError> {
     crate::alloc::try_zeroed(len, what)
         .map_err(|e| ImageError(e.to_string(), ImageErrorKind::Memory))
 }

@@ -38,6 +38,12 @@ from .karis import KarisHair
 from .tables import COLORS, grid
 
 ROUGHNESS = 0.4
+# Seconds between timed calls. drjit's worker threads keep spinning for a
+# while after a Mitsuba call; a call timed right after one shares the cores
+# with them (measured: hairshade's ChiangHair at 102 M pairs/s right after
+# Mitsuba's call, 184 M/s after a 20 ms pause, in one run). The pause lets
+# every library's threads go idle before the next case.
+PAUSE_S = 0.02
 
 
 def _rel_l2(a: np.ndarray, ref: np.ndarray) -> float:
@@ -112,6 +118,7 @@ def bsdf_runtime_vs_error(n: int = 1 << 20, repeats: int = 3, fast: bool = False
                 for i, (_, fn, _, _) in enumerate(cases):
                     if not run[i]:
                         continue
+                    time.sleep(PAUSE_S)
                     t0 = time.perf_counter()
                     fn()
                     best[i] = min(best[i], time.perf_counter() - t0)

@@ -122,7 +122,7 @@ pub fn entries<T>(arrays: &[(&[T], usize, &str)]) -> PyResult<usize> {
 }
 
 /// `len` zeros, or a `MemoryError` naming `what` and the bytes asked for.
-pub fn zeroed<T: Clone + Default>(len: usize, what: &str) -> PyResult<Vec<T>> {
+pub fn zeroed<T: Clone + Default + Send + Sync>(len: usize, what: &str) -> PyResult<Vec<T>> {
     crate::alloc::try_zeroed(len, what).map_err(|e| PyMemoryError::new_err(e.to_string()))
 }
 

@@ -77,6 +77,14 @@ impl<const N: usize> Lanes for F<N> {
         self.map(f32::sqrt)
     }
     #[inline(always)]
+    fn rsqrt_estimate(self) -> Self {
+        self.map(|x| 1.0 / x.sqrt())
+    }
+    #[inline(always)]
+    fn recip_estimate(self) -> Self {
+        self.map(|x| 1.0 / x)
+    }
+    #[inline(always)]
     fn mul_add(self, a: Self, b: Self) -> Self {
         self * a + b
     }

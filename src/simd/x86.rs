@@ -40,8 +40,64 @@ impl Lanes for F8 {
         unsafe { _mm256_storeu_ps(s.as_mut_ptr(), self.0) }
     }
     #[inline(always)]
+    fn load3(s: &[f32]) -> [Self; 3] {
+        assert!(s.len() >= 24);
+        // a = x0 y0 z0 x1 y1 z1 x2 y2, b = z2 x3 .. x5, c = y5 z5 .. z7:
+        // blend each component's lanes together, then put them in order.
+        unsafe {
+            let p = s.as_ptr();
+            let (a, b, c) = (
+                _mm256_loadu_ps(p),
+                _mm256_loadu_ps(p.add(8)),
+                _mm256_loadu_ps(p.add(16)),
+            );
+            let x = _mm256_blend_ps::<0b0010_0100>(_mm256_blend_ps::<0b1001_0010>(a, b), c);
+            let y = _mm256_blend_ps::<0b0100_1001>(_mm256_blend_ps::<0b0010_0100>(a, b), c);
+            let z = _mm256_blend_ps::<0b1001_0010>(_mm256_blend_ps::<0b0100_1001>(a, b), c);
+            [
+                F8(_mm256_permutevar8x32_ps(
+                    x,
+                    _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5),
+                )),
+                F8(_mm256_permutevar8x32_ps(
+                    y,
+                    _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6),
+                )),
+                F8(_mm256_permutevar8x32_ps(
+                    z,
+                    _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7),
+                )),
+            ]
+        }
+    }
+    #[inline(always)]
+    fn store3(v: &[Self; 3], s: &mut [f32]) {
+        assert!(s.len() >= 24);
+        // load3 backwards: each component in blend order, then blended.
+        unsafe {
+            let x = _mm256_permutevar8x32_ps(v[0].0, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+            let y = _mm256_permutevar8x32_ps(v[1].0, _mm256_setr_epi32(5, 0, 3, 6, 1, 4, 7, 2));
+            let z = _mm256_permutevar8x32_ps(v[2].0, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+            let a = _mm256_blend_ps::<0b0010_0100>(_mm256_blend_ps::<0b1001_0010>(x, y), z);
+            let b = _mm256_blend_ps::<0b0100_1001>(_mm256_blend_ps::<0b0010_0100>(x, y), z);
+            let c = _mm256_blend_ps::<0b1001_0010>(_mm256_blend_ps::<0b0100_1001>(x, y), z);
+            let p = s.as_mut_ptr();
+            _mm256_storeu_ps(p, a);
+            _mm256_storeu_ps(p.add(8), b);
+            _mm256_storeu_ps(p.add(16), c);
+        }
+    }
+    #[inline(always)]
     fn sqrt(self) -> Self {
         unsafe { F8(_mm256_sqrt_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn rsqrt_estimate(self) -> Self {
+        unsafe { F8(_mm256_rsqrt_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn recip_estimate(self) -> Self {
+        unsafe { F8(_mm256_rcp_ps(self.0)) }
     }
     #[inline(always)]
     fn mul_add(self, a: Self, b: Self) -> Self {
@@ -150,8 +206,53 @@ impl Lanes for F16 {
         unsafe { _mm512_storeu_ps(s.as_mut_ptr(), self.0) }
     }
     #[inline(always)]
+    fn load3(s: &[f32]) -> [Self; 3] {
+        assert!(s.len() >= 48);
+        unsafe {
+            let p = s.as_ptr();
+            let (a, b, c) = (
+                _mm512_loadu_ps(p),
+                _mm512_loadu_ps(p.add(16)),
+                _mm512_loadu_ps(p.add(32)),
+            );
+            let mut out = [F16(a); 3];
+            for (j, o) in out.iter_mut().enumerate() {
+                let (i1, i2) = (&LOAD3_IDX[j][0], &LOAD3_IDX[j][1]);
+                let t = _mm512_permutex2var_ps(a, _mm512_loadu_si512(i1.as_ptr().cast()), b);
+                *o = F16(_mm512_permutex2var_ps(
+                    t,
+                    _mm512_loadu_si512(i2.as_ptr().cast()),
+                    c,
+                ));
+            }
+            out
+        }
+    }
+    #[inline(always)]
+    fn store3(v: &[Self; 3], s: &mut [f32]) {
+        assert!(s.len() >= 48);
+        unsafe {
+            let p = s.as_mut_ptr();
+            for (q, idx) in STORE3_IDX.iter().enumerate() {
+                let (i1, i2) = (&idx[0], &idx[1]);
+                let t =
+                    _mm512_permutex2var_ps(v[0].0, _mm512_loadu_si512(i1.as_ptr().cast()), v[1].0);
+                let o = _mm512_permutex2var_ps(t, _mm512_loadu_si512(i2.as_ptr().cast()), v[2].0);
+                _mm512_storeu_ps(p.add(16 * q), o);
+            }
+        }
+    }
+    #[inline(always)]
     fn sqrt(self) -> Self {
         unsafe { F16(_mm512_sqrt_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn rsqrt_estimate(self) -> Self {
+        unsafe { F16(_mm512_rsqrt14_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn recip_estimate(self) -> Self {
+        unsafe { F16(_mm512_rcp14_ps(self.0)) }
     }
     #[inline(always)]
     fn mul_add(self, a: Self, b: Self) -> Self {
@@ -226,8 +327,58 @@ impl Lanes for F16 {
     }
 }
 
+/// [`F16::load3`]'s two-step permutations per component `j`: record `k`'s
+/// component sits at flat position `p = 3k + j` of the 48 loaded; the first
+/// step gathers those in the first two vectors (`p < 32`), the second keeps
+/// them and takes the rest from the third.
+const LOAD3_IDX: [[[i32; 16]; 2]; 3] = {
+    let mut t = [[[0; 16]; 2]; 3];
+    let mut j = 0;
+    while j < 3 {
+        let mut k = 0;
+        while k < 16 {
+            let p = (3 * k + j) as i32;
+            if p < 32 {
+                t[j][0][k] = p;
+                t[j][1][k] = k as i32;
+            } else {
+                t[j][1][k] = 16 + p - 32;
+            }
+            k += 1;
+        }
+        j += 1;
+    }
+    t
+};
+
+/// [`F16::store3`]'s permutations per output vector `q`: flat position
+/// `f = 16q + i` holds component `f mod 3` of record `f / 3`; the first step
+/// takes x and y, the second keeps them and takes z.
+const STORE3_IDX: [[[i32; 16]; 2]; 3] = {
+    let mut t = [[[0; 16]; 2]; 3];
+    let mut q = 0;
+    while q < 3 {
+        let mut i = 0;
+        while i < 16 {
+            let f = 16 * q + i;
+            let k = (f / 3) as i32;
+            match f % 3 {
+                0 => t[q][0][i] = k,
+                1 => t[q][0][i] = 16 + k,
+                _ => t[q][1][i] = 16 + k,
+            }
+            if f % 3 != 2 {
+                t[q][1][i] = i as i32;
+            }
+            i += 1;
+        }
+        q += 1;
+    }
+    t
+};
+
 macro_rules! ops {
-    ($ty:ident, $add:ident, $sub:ident, $mul:ident, $div:ident, $xor:ident, $set1:ident) => {
+    ($ty:ident, $add:ident, $sub:ident, $mul:ident, $div:ident, $neg:ident) => {
         impl Add for $ty {
             type Output = Self;
             #[inline(always)]
@@ -281,7 +432,7 @@ macro_rules! ops {
             type Output = Self;
             #[inline(always)]
             fn neg(self) -> Self {
-                unsafe { $ty($xor(self.0, $set1(-0.0))) }
+                unsafe { $ty($neg(self.0)) }
             }
         }
     };
@@ -292,8 +443,7 @@ ops!(
     _mm256_sub_ps,
     _mm256_mul_ps,
     _mm256_div_ps,
-    _mm256_xor_ps,
-    _mm256_set1_ps
+    neg8
 );
 ops!(
     F16,
@@ -301,6 +451,20 @@ ops!(
     _mm512_sub_ps,
     _mm512_mul_ps,
     _mm512_div_ps,
-    _mm512_xor_ps,
-    _mm512_set1_ps
+    neg16
 );
+
+/// `−x`: the sign bit flipped.
+#[inline(always)]
+unsafe fn neg8(x: __m256) -> __m256 {
+    _mm256_xor_ps(x, _mm256_set1_ps(-0.0))
+}
+
+/// `−x` as `x · (−1)`, which is exact (signed zeros and NaN included) and
+/// which the compiler turns into a sign flip and folds into fused
+/// multiply-adds (`_mm512_xor_ps` is AVX-512DQ, which the kernels are not
+/// compiled for: it would be a call).
+#[inline(always)]
+unsafe fn neg16(x: __m512) -> __m512 {
+    _mm512_mul_ps(x, _mm512_set1_ps(-1.0))
+}
