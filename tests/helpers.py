@@ -7,12 +7,17 @@ from pathlib import Path
 
 import numpy as np
 
+import hairshade as hs
+
 # The Mitsuba comparison set, shared with `hairshade validate`:
 # direction_pairs(n_random, rng) draws from rng in place (a Generator passes
 # through np.random.default_rng unchanged), as the copy that lived here did.
 from hairshade.validation import direction_pairs  # noqa: F401
 
 U32 = 2.0**-24  # unit roundoff of float32
+# The folder holding the hairshade package these tests import: the
+# PYTHONPATH of the child processes they start.
+PYTHON_DIR = str(Path(hs.__file__).resolve().parent.parent)
 
 
 def uniform_sphere(n: int, rng: np.random.Generator) -> np.ndarray:

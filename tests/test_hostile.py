@@ -32,10 +32,10 @@ import numpy as np
 import pytest
 
 import hairshade as hs
+from helpers import PYTHON_DIR
 from helpers import write_scene as scene
 
 GIB = 1 << 30
-PYTHON_DIR = str(Path(hs.__file__).resolve().parent.parent)
 
 PRELUDE = """
 import json, os, resource, sys, traceback

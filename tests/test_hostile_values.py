@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 import hairshade as hs
+from helpers import PYTHON_DIR
 from helpers import write_scene as scene
 
-PYTHON_DIR = str(Path(hs.__file__).resolve().parent.parent)
 
 CAMERA = {"position": [0, 0, 3], "target": [0, 0, 0], "resolution": [32, 18]}
 LIGHT = {"type": "directional", "direction": [1, 1, 1], "intensity": [3, 3, 3], "shadows": True}
