@@ -232,7 +232,10 @@ pub trait Lanes:
     }
 
     /// `self · 2^n`, `n ∈ [-126, 127]`, `n` read from `shifted` as in
-    /// [`Lanes::scale_pow2`].
+    /// [`Lanes::scale_pow2`], where the result is a normal number (as in
+    /// [`Lanes::exp_bounded`], whose `e^r ∈ [0.7, 1.42]` is ≥ 1 where n is
+    /// -126); elsewhere unspecified (AVX2 and AVX-512 add n to the exponent
+    /// field).
     fn scale_pow2_small(self, shifted: Self) -> Self;
 
     /// `e^x`: `x = n ln2 + r`, `|r| ≤ ½ ln2` (Cephes `expf`'s reduction), a

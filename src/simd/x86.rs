@@ -159,16 +159,13 @@ impl Lanes for F8 {
     }
     #[inline(always)]
     fn scale_pow2_small(self, shifted: Self) -> Self {
+        // n added to the exponent field: bits(shifted) << 23 is n << 23
+        // (SHIFTER_BITS << 23 wraps to 0); exact where the result is normal
         unsafe {
-            // (bits(shifted) − SHIFTER_BITS + 127) << 23
-            let e = _mm256_add_epi32(
-                _mm256_castps_si256(shifted.0),
-                _mm256_set1_epi32(127 - SHIFTER_BITS),
-            );
-            F8(_mm256_mul_ps(
-                self.0,
-                _mm256_castsi256_ps(_mm256_slli_epi32::<23>(e)),
-            ))
+            F8(_mm256_castsi256_ps(_mm256_add_epi32(
+                _mm256_castps_si256(self.0),
+                _mm256_slli_epi32::<23>(_mm256_castps_si256(shifted.0)),
+            )))
         }
     }
 }
@@ -313,16 +310,12 @@ impl Lanes for F16 {
     }
     #[inline(always)]
     fn scale_pow2_small(self, shifted: Self) -> Self {
+        // as F8's
         unsafe {
-            // (bits(shifted) − SHIFTER_BITS + 127) << 23
-            let e = _mm512_add_epi32(
-                _mm512_castps_si512(shifted.0),
-                _mm512_set1_epi32(127 - SHIFTER_BITS),
-            );
-            F16(_mm512_mul_ps(
-                self.0,
-                _mm512_castsi512_ps(_mm512_slli_epi32::<23>(e)),
-            ))
+            F16(_mm512_castsi512_ps(_mm512_add_epi32(
+                _mm512_castps_si512(self.0),
+                _mm512_slli_epi32::<23>(_mm512_castps_si512(shifted.0)),
+            )))
         }
     }
 }
