@@ -20,7 +20,7 @@
 //!   ([`Lanes::recip`], [`Lanes::rsqrt`]: an estimate and a Newton step);
 //!   the two Fresnel ratios keep their divisions (see there).
 //!
-//! Cost (`scripts/bsdf_vs_mitsuba.py`): 112 instructions per pair at AVX2.
+//! Cost (`scripts/bsdf_vs_mitsuba.py`): 111 instructions per pair at AVX2.
 
 use super::ChiangHair;
 use crate::simd::{
