@@ -134,8 +134,10 @@ def throughput(n: int = 1 << 20, repeats: int = 5, variant: str | None = None) -
     """evals/s of ChiangHair.eval (f32, f64) and Mitsuba's hair eval on the
     same 2^20 random pairs, interleaved in one run; best of `repeats`.
     Mitsuba is called directly, numpy to numpy and data resident
-    (:func:`hairshade.benchmark.mitsuba_cases`)."""
-    from .benchmark import mitsuba_cases
+    (:func:`hairshade.benchmark.mitsuba_cases`); each call follows a pause
+    of ``benchmark.PAUSE_S``, so that none is timed while the threads of
+    the call before it still spin."""
+    from .benchmark import PAUSE_S, mitsuba_cases
 
     rng = np.random.default_rng(1)
     v = rng.normal(size=(2, n, 3))
@@ -154,6 +156,7 @@ def throughput(n: int = 1 << 20, repeats: int = 5, variant: str | None = None) -
     best = {k: np.inf for k in cases}
     for _ in range(repeats):
         for k, f in cases.items():
+            time.sleep(PAUSE_S)
             t = time.perf_counter()
             f()
             best[k] = min(best[k], time.perf_counter() - t)
