@@ -73,7 +73,7 @@ def child(level: str, repeats: int) -> None:
     import numpy as np
 
     from hairshade import _native
-    from hairshade.benchmark import PAUSE_S, _random_pairs, mitsuba_cases
+    from hairshade.benchmark import _random_pairs, mitsuba_cases, timed
     from hairshade.chiang import ChiangHair
 
     n = 1 << 20
@@ -93,10 +93,7 @@ def child(level: str, repeats: int) -> None:
     best = {k: float("inf") for k in fns}
     for _ in range(repeats):
         for k, fn in fns.items():
-            time.sleep(PAUSE_S)
-            t0 = time.perf_counter()
-            fn()
-            best[k] = min(best[k], time.perf_counter() - t0)
+            best[k] = min(best[k], timed(fn))
     print(json.dumps({"level": _native.simd_level(), "mitsuba_target": mitsuba_target,
                       "hairshade": n / best["hairshade"], "mitsuba": n / best["mitsuba"]}))
 

@@ -46,6 +46,14 @@ ROUGHNESS = 0.4
 PAUSE_S = 0.02
 
 
+def timed(fn: Callable[[], Any]) -> float:
+    """Seconds one call of ``fn`` takes, after a pause of ``PAUSE_S``."""
+    time.sleep(PAUSE_S)
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
 def _rel_l2(a: np.ndarray, ref: np.ndarray) -> float:
     den = np.sqrt((ref**2).sum())
     return float(np.sqrt(((a - ref) ** 2).sum()) / den) if den > 0 else 0.0
@@ -118,10 +126,7 @@ def bsdf_runtime_vs_error(n: int = 1 << 20, repeats: int = 3, fast: bool = False
                 for i, (_, fn, _, _) in enumerate(cases):
                     if not run[i]:
                         continue
-                    time.sleep(PAUSE_S)
-                    t0 = time.perf_counter()
-                    fn()
-                    best[i] = min(best[i], time.perf_counter() - t0)
+                    best[i] = min(best[i], timed(fn))
         finally:
             _native.set_single_threaded(False)
         for (meta, _, count, err), t in zip(cases, best):

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import itertools
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -137,7 +136,7 @@ def throughput(n: int = 1 << 20, repeats: int = 5, variant: str | None = None) -
     (:func:`hairshade.benchmark.mitsuba_cases`); each call follows a pause
     of ``benchmark.PAUSE_S``, so that none is timed while the threads of
     the call before it still spin."""
-    from .benchmark import PAUSE_S, mitsuba_cases
+    from .benchmark import mitsuba_cases, timed
 
     rng = np.random.default_rng(1)
     v = rng.normal(size=(2, n, 3))
@@ -156,8 +155,5 @@ def throughput(n: int = 1 << 20, repeats: int = 5, variant: str | None = None) -
     best = {k: np.inf for k in cases}
     for _ in range(repeats):
         for k, f in cases.items():
-            time.sleep(PAUSE_S)
-            t = time.perf_counter()
-            f()
-            best[k] = min(best[k], time.perf_counter() - t)
+            best[k] = min(best[k], timed(f))
     return {k: n / t for k, t in best.items()}
