@@ -69,6 +69,12 @@ def test_02_a_new_view_reuses_the_solve_and_a_new_light_does_not():
     d["lights"][0]["intensity"] = [5, 5, 5]
     _, relit = hs.render(hs.Scene.from_dict(d), return_stats=True)
     assert not relit["volume_reused"]
+    # the default preset reads the bins at their centres; read at their mean directions, the
+    # bins tally those directions too: a solve of its own
+    assert hs.Scene.from_dict(d).options()["volume_directions"] == "centre"
+    d["render"]["multiple_scattering"]["volume"]["directions"] = "mean"
+    _, mean = hs.render(hs.Scene.from_dict(d), return_stats=True)
+    assert not mean["volume_reused"]
 
 
 def test_03_the_volume_adds_light_and_only_light():

@@ -184,6 +184,10 @@ class VolumeOptions(TypedDict, total=False):
         "photons fly between the fibers they really meet, traced through the strands (the default: exact "
         "transport, docs/volume_transport.md), or through the oriented fiber medium (about 2x faster to "
         "solve; its bias depends on the light, docs/volume.md)")]
+    directions: Annotated[Literal["mean", "centre"], Native("volume_directions"), Doc(
+        "the direction each bin's light is read from: its own mean direction and spread, tallied with it "
+        "(the default: sharper where the light in a bin runs one way), or the bin's centre (linear in the "
+        "tallies, so a few photons' noisy mean direction adds no error: the balanced preset's; docs/volume.md)")]
 
 
 class NoOptions(TypedDict, total=False):
@@ -403,17 +407,20 @@ PRESETS: Dict[str, Dict[str, Any]] = {
     # tenth of the strands (docs/guides.md, guides_held_out.md: 1.1-1.7x faster at 320x180,
     # the error against the truth within 4.4% of itself on the dense and held-out heads, the
     # mean within 0.6%)
-    # ChiangHair takes 32 coverage samples: each sample also samples its fiber's offset h for the
+    # ChiangHair takes 64 coverage samples: each sample also samples its fiber's offset h for the
     # near field, whose noise then dominates (relMSE against the truth at 16 -> 32 samples:
     # ginger_two 5.2e-3 -> 3.1e-3, wavy_ginger_back 5.4e-3 -> 2.5e-3, wavy_black_env 7.1e-3 ->
-    # 4.1e-3; the frame about 1.2x longer); the volume is solved with 2^16 photons a light on
-    # 6 x 6 direction bins (the solve 3x shorter than 2^18 on 8 x 8; at 32 samples the same 12
-    # of 13 ChiangHair heads within relMSE 5e-3 and 10% per channel: docs/volume.md)
+    # 4.1e-3; the frame about 1.2x longer; 32 -> 64 on the backlit blond, 5.5e-3 -> 4.8e-3, the
+    # frame 1.25x longer); the volume is solved with 2^17 photons a light on 8 x 8 direction bins
+    # read at the bins' centres (at 2^16 photons on 6 x 6 bins read at their mean directions, the
+    # backlit blond's relMSE was 7.4e-3: a few photons' mean direction is noisy, and the fiber's
+    # response turns that noise into error; docs/volume.md)
     "balanced": {
-        "transparency": {"karis": {"coverage": {"samples": 16}}, "chiang": {"coverage": {"samples": 32}},
+        "transparency": {"karis": {"coverage": {"samples": 16}}, "chiang": {"coverage": {"samples": 64}},
                          "deon": {"coverage": {"samples": 16}}},
         "shadows": {"traced": {"vertices": True}},
-        "multiple_scattering": {"karis": "dual", "chiang": {"volume": {"photons": 1 << 16, "bins": 6}},
+        "multiple_scattering": {"karis": "dual",
+                                "chiang": {"volume": {"photons": 1 << 17, "bins": 8, "directions": "centre"}},
                                 "deon": "none"},
         "shading": "split",
         "guides": 0.1,

@@ -11,7 +11,7 @@ use crate::raster::guides::{GuideChoice, GuideTerms, Guides};
 use crate::raster::lod::Lod;
 use crate::raster::pack::LayerFormat;
 use crate::raster::scene::{
-    Backscatter, MultipleScattering, RenderOptions, Transparency, VolumeTransport,
+    Backscatter, MultipleScattering, RenderOptions, Transparency, VolumeDirections, VolumeTransport,
 };
 use crate::raster::shadow::ShadowModel;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyValueError};
@@ -408,6 +408,10 @@ fn read_options(d: &Bound<'_, PyDict>) -> PyResult<(RenderOptions, (usize, usize
             "medium" => VolumeTransport::Medium,
             _ => VolumeTransport::Strands,
         },
+        volume_directions: match r.choice("volume_directions", "mean", &["mean", "centre"])? {
+            "centre" => VolumeDirections::Centre,
+            _ => VolumeDirections::Mean,
+        },
         sphere_bounce: r.flag("sphere_bounce", def.sphere_bounce)?,
         near_field: r.flag("near_field", def.near_field)?,
         traced_own_strand_passes: r.choice(
@@ -513,6 +517,13 @@ fn options_dict<'py>(
         match o.volume_transport {
             VolumeTransport::Medium => "medium",
             VolumeTransport::Strands => "strands",
+        },
+    )?;
+    d.set_item(
+        "volume_directions",
+        match o.volume_directions {
+            VolumeDirections::Mean => "mean",
+            VolumeDirections::Centre => "centre",
         },
     )?;
     d.set_item("sphere_bounce", o.sphere_bounce)?;

@@ -279,6 +279,9 @@ pub struct RenderOptions {
     pub volume_bins: usize,
     /// How the volume's photons fly (`render.volume_transport`).
     pub volume_transport: VolumeTransport,
+    /// Which direction each bin's light is read from
+    /// (`render.volume_directions`).
+    pub volume_directions: VolumeDirections,
     /// Under dual scattering, the light opaque spheres reflect into the
     /// hair ([`super::bounce`]).
     pub sphere_bounce: bool,
@@ -366,6 +369,7 @@ impl Default for RenderOptions {
             volume_photons: 1 << 18,
             volume_bins: 8,
             volume_transport: VolumeTransport::Strands,
+            volume_directions: VolumeDirections::Mean,
             sphere_bounce: true,
             near_field: true,
             traced_own_strand_passes: false,
@@ -397,6 +401,21 @@ pub enum VolumeTransport {
     /// Between the fibers they really meet, traced through the strands
     /// (`"strands"`, the default); the medium only holds the tallies.
     Strands,
+}
+
+/// Which direction a fragment reads each direction bin's light from
+/// (`render.volume_directions`; [`super::volume`]'s `fold`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum VolumeDirections {
+    /// The light's own mean direction and spread, tallied with it
+    /// (`"mean"`, the default): sharper where light in a bin runs one
+    /// way, but a few photons' mean direction is noisy, and the fiber's
+    /// response peaked on its cone turns that noise into error.
+    Mean,
+    /// The bin's centre and the spread of a uniform light over the bin
+    /// (`"centre"`): the reading is linear in the tallies, so a bin's
+    /// noise is only its fluence's (docs/volume.md).
+    Centre,
 }
 
 /// Everything the renderer draws.

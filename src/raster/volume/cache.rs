@@ -52,6 +52,7 @@ fn key(scene: &Scene, geometry: u64, env: Option<&EnvLights>, s: &VolumeSettings
     h.word(s.photons as u64);
     h.word(s.bins as u64);
     h.word(s.transport as u64);
+    h.word(s.directions as u64);
     h.finish()
 }
 

@@ -22,23 +22,24 @@ use rayon::prelude::*;
 /// cell) pushed the straight key-lit separated head's multiple scattering
 /// from 1.15 to 1.21 of the truth's in red, and is not used.
 ///
-/// `nb` bins per group, `groups` groups per cell: a cell's rows are one
-/// contiguous block of `groups · nb` bins, and every neighbour's block is
-/// added to the cell's whole at once (one coefficient over the block).
+/// `block` rows a cell (its bins times its groups) of `words` floats
+/// each (RGB, then the summed direction where it is tallied): a cell's
+/// rows are one contiguous block, and every neighbour's block is added to
+/// the cell's whole at once (one coefficient over the block).
 ///
 /// `out` (as long as `fluence`) receives the result: every row is
 /// written, none read, so it may be a buffer of an earlier pass.
 pub(super) fn smooth(
     m: &medium::Cells,
-    fluence: &[[f32; 6]],
-    out: &mut [[f32; 6]],
-    nb: usize,
-    groups: usize,
+    fluence: &[f32],
+    out: &mut [f32],
+    block: usize,
+    words: usize,
 ) {
     assert_eq!(out.len(), fluence.len());
     let d = m.dims;
-    let block = nb * groups;
-    if block == 0 {
+    let span = block * words;
+    if span == 0 {
         return;
     }
     // Each cell's rows are summed in a scratch block and written once: the
@@ -47,8 +48,8 @@ pub(super) fn smooth(
     // second fault and a TLB flush on every thread: 17% of a balanced
     // blond_back frame, measured).
     pool().install(|| {
-        out.par_chunks_mut(block).enumerate().for_each_init(
-            || (Vec::with_capacity(27), vec![0.0f32; 6 * block]),
+        out.par_chunks_mut(span).enumerate().for_each_init(
+            || (Vec::with_capacity(27), vec![0.0f32; span]),
             |(nbrs, acc): &mut (Vec<(usize, f32, Vec3)>, Vec<f32>), (s, rows)| {
                 let v = m.cell_of[s] as usize;
                 let [i, j, k] = medium::grid_coords(d, v).map(|x| x as i64);
@@ -78,14 +79,15 @@ pub(super) fn smooth(
                 let l = local_linear(nbrs);
                 acc.fill(0.0);
                 for (&(ns, _, _), &c) in nbrs.iter().zip(&l) {
-                    let src = fluence[ns * block..(ns + 1) * block].as_flattened();
-                    for (a, x) in acc.iter_mut().zip(src) {
+                    for (a, x) in acc.iter_mut().zip(&fluence[ns * span..(ns + 1) * span]) {
                         *a += c * x;
                     }
                 }
-                for (row, a) in rows.iter_mut().zip(acc.chunks_exact(6)) {
+                for (row, a) in rows.chunks_exact_mut(words).zip(acc.chunks_exact(words)) {
                     // the plane may dip below zero where the light falls off fast
-                    *row = std::array::from_fn(|q| if q < 3 { a[q].max(0.0) } else { a[q] });
+                    for (q, (r, &x)) in row.iter_mut().zip(a).enumerate() {
+                        *r = if q < 3 { x.max(0.0) } else { x };
+                    }
                 }
             },
         );

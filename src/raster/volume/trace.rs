@@ -218,6 +218,10 @@ pub struct Tally<'a> {
     /// Strand groups tallied apart ([`GROUPS`] under the strands
     /// transport, else 1).
     pub groups: usize,
+    /// Words per bin: [`WORDS`] with the mean directions (what
+    /// [`crate::raster::scene::VolumeDirections::Mean`] reads), else 3
+    /// (RGB alone).
+    pub words: usize,
 }
 
 /// Groups the strands transport tallies apart: light a strand scattered
@@ -250,12 +254,15 @@ impl Tally<'_> {
     #[inline]
     fn add(&self, slot: usize, group: usize, bin: usize, w: Vec3, d: Vec3) {
         use std::sync::atomic::Ordering::Relaxed;
-        let base = ((slot * self.groups + group) * self.bins.count() + bin) * WORDS;
+        let base = ((slot * self.groups + group) * self.bins.count() + bin) * self.words;
         for (c, x) in w.to_array().into_iter().enumerate() {
             let q = (x as f64 * FIXED) as u64;
             if q > 0 {
                 self.sums[base + c].fetch_add(q, Relaxed);
             }
+        }
+        if self.words < WORDS {
+            return;
         }
         let mean = (w.x + w.y + w.z) as f64 / 3.0;
         for (c, x) in d.to_array().into_iter().enumerate() {
