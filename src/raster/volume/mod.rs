@@ -156,7 +156,7 @@ pub fn bytes_estimate(scene: &Scene, hair: (glam::Vec3, glam::Vec3), s: &VolumeS
         VolumeTransport::Medium => 1,
     };
     o.medium_bytes()
-        + o.hair_cells * groups * s.bins * s.bins * (words(s.directions) * 8 + trace::WORDS * 4)
+        + o.hair_cells * groups * s.bins * s.bins * words(s.directions) * (8 + 4)
         + response::ResponseTable::BYTES
 }
 
