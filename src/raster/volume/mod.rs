@@ -15,7 +15,8 @@
 //!    is tallied per cell (in the voxels holding hair, each weighted by its
 //!    fibers) and direction bin (octahedral, [`bins`]): the fluence
 //!    `Φ_b(x) = ∫_b L(x, ω) dω` of light scattered at least once, averaged
-//!    over the cell's fibers, with its mean direction. Under the strands
+//!    over the cell's fibers, with its mean direction where the fragments
+//!    read it ([`VolumeDirections::Mean`]). Under the strands
 //!    transport, light is tallied per group of the strand that last
 //!    scattered it ([`trace::GROUPS`]). The tallies are filtered by a local
 //!    linear fit over each cell's neighbours ([`smooth`]; twice below
@@ -26,7 +27,10 @@
 //!    by the far field: `L_ms = Σ_b f_σb(t, v, −ω_b) Φ_b(x)`, where `f × E`
 //!    is what a directional light of irradiance `E` gives, `ω_b` the bin's
 //!    mean direction and `f_σb` the response blurred by the spread of the
-//!    bin's light about it ([`response`]), normalized so that a radiance of
+//!    bin's light about it ([`response`]; or, with
+//!    [`VolumeDirections::Centre`], the bin's centre and the spread of a
+//!    uniform light over the bin: linear in the tallies, less noise from
+//!    few photons), normalized so that a radiance of
 //!    1 from everywhere gives the fiber's albedo exactly ([`fold`]: the
 //!    few bins integrate a response peaked on the fiber's cone unevenly,
 //!    0.94-1.03 of it at 8 × 8 bins). With groups, a fiber reads only
