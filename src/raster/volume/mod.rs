@@ -125,11 +125,10 @@ pub struct VolumeRadiance {
     /// Strand groups tallied apart ([`trace::GROUPS`] under the strands
     /// transport, else 1).
     groups: usize,
-    /// Per occupied voxel, group and bin, `words` floats: the RGB fluence
-    /// of scattered light and, under [`VolumeDirections::Mean`], its mean
-    /// propagation direction times its mean over RGB.
+    /// Per occupied voxel, group and bin, [`words`] floats: the RGB
+    /// fluence of scattered light and, under [`VolumeDirections::Mean`],
+    /// its mean propagation direction times its mean over RGB.
     fluence: Vec<f32>,
-    words: usize,
     /// The bins' tally of a radiance of 1 from every direction
     /// ([`Bins::uniform_field`]) as [`fold`] reads it, which it normalizes
     /// by.
@@ -363,7 +362,6 @@ impl VolumeRadiance {
             bins,
             groups,
             fluence,
-            words,
             uniform: bin_lights(&bins.uniform_field()),
             response,
             directions: settings.directions,
@@ -429,7 +427,7 @@ impl VolumeRadiance {
             }
             wsum += w;
             let s = s as usize;
-            let words = self.words;
+            let words = words(self.directions);
             let span = nb * self.groups * words;
             let cell = &self.fluence[s * span..(s + 1) * span];
             for (g, row) in cell.chunks_exact(nb * words).enumerate() {

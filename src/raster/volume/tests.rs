@@ -104,6 +104,27 @@ fn sphere_directions(nz: usize, np: usize) -> (Vec<Vec3>, f32) {
     (dirs, dw)
 }
 
+/// The bins' tally of a radiance `radiance(l)` arriving from each of
+/// `dirs` (solid angle `dw` each): light arriving from `l` propagates
+/// along `−l`.
+fn field_tally(
+    bins: Bins,
+    dirs: &[Vec3],
+    dw: f32,
+    radiance: impl Fn(Vec3) -> f32,
+) -> Vec<[f32; 6]> {
+    let mut acc = vec![[0.0f32; 6]; bins.count()];
+    for &l in dirs {
+        let b = &mut acc[bins.of(-l)];
+        let w = radiance(l) * dw;
+        for k in 0..3 {
+            b[k] += w;
+            b[3 + k] -= l[k] * w;
+        }
+    }
+    acc
+}
+
 /// ChiangHair of `p`, tabulated as the renderer shades it.
 fn chiang(p: crate::fiber::ChiangParams) -> HairShading {
     use crate::fiber::chiang::{ChiangFarTable, TableSize};
@@ -154,16 +175,7 @@ fn fold_integrates_the_response() {
             let bins = Bins { n };
             let uniform = bins.uniform_field();
             let lights = bin_lights(&uniform);
-            // the linear field's tally: light arriving from l propagates along -l
-            let mut lin = vec![[0.0f32; 6]; bins.count()];
-            for &l in &dirs {
-                let b = &mut lin[bins.of(-l)];
-                let w = linear(l) * dw;
-                for k in 0..3 {
-                    b[k] += w;
-                    b[3 + k] -= l[k] * w;
-                }
-            }
+            let lin = field_tally(bins, &dirs, dw, linear);
             for (t, v) in views {
                 let (t, v) = (t.normalize(), v.normalize());
                 let exact = dirs.iter().fold(Vec3::ZERO, |s, &l| s + f(t, v, l) * dw);
@@ -393,15 +405,7 @@ fn bin_centres_read_linearly() {
     let (dirs, dw) = sphere_directions(400, 800);
     let a_lin = Vec3::new(0.3, -0.5, 0.8).normalize();
     let linear = |l: Vec3| 1.0 + 0.8 * l.dot(a_lin);
-    let mut lin = vec![[0.0f32; 6]; bins.count()];
-    for &l in &dirs {
-        let c = &mut lin[bins.of(-l)];
-        let w = linear(l) * dw;
-        for k in 0..3 {
-            c[k] += w;
-            c[3 + k] -= l[k] * w;
-        }
-    }
+    let lin = field_tally(bins, &dirs, dw, linear);
     let mut mean_gap = 0.0f32;
     for (t, v) in [
         (Vec3::new(0.3, 1.0, -0.2), Vec3::new(0.0, 0.2, 1.0)),
@@ -474,11 +478,12 @@ fn centre_solve_tallies_the_same_light() {
         solve(VolumeDirections::Mean),
         solve(VolumeDirections::Centre),
     );
-    assert_eq!((mean.words, centre.words), (6, 3));
+    let words = |v: &VolumeRadiance| words(v.directions);
+    assert_eq!((words(&mean), words(&centre)), (6, 3));
     assert_eq!(mean.fluence.len(), 2 * centre.fluence.len());
     let rows = |v: &VolumeRadiance| {
         v.fluence
-            .chunks_exact(v.words)
+            .chunks_exact(words(v))
             .map(|r| r[..3].to_vec())
             .collect::<Vec<_>>()
     };
